@@ -1,0 +1,82 @@
+// Pinhole + Brown-Conrady camera model in OpenCV's convention (DESIGN.md section 2).
+//
+// The forward model maps ideal normalized coordinates (X/Z, Y/Z) to distorted pixels;
+// pixel centres sit at integer coordinates. The templated functions are what Ceres
+// differentiates; the double-typed ones are for everyday use.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+namespace autocal {
+
+// Parameter order of the packed intrinsics vector used by the solvers.
+enum IntrinsicIndex { kFx = 0, kFy, kCx, kCy, kK1, kK2, kP1, kP2, kK3, kNumIntrinsics };
+
+struct CameraIntrinsics {
+  int width = 0;   // Image width in pixels.
+  int height = 0;  // Image height in pixels.
+  double fx = 0.0, fy = 0.0;  // Focal lengths in pixels.
+  double cx = 0.0, cy = 0.0;  // Principal point in pixels (pixel centres at integers).
+  double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;  // Brown-Conrady, OpenCV order.
+
+  // fx, fy, cx, cy, k1, k2, p1, p2, k3.
+  std::array<double, kNumIntrinsics> Packed() const;
+  static CameraIntrinsics FromPacked(const std::array<double, kNumIntrinsics>& packed, int width,
+                                     int height);
+  // k1, k2, p1, p2, k3 (OpenCV's distortion vector).
+  std::array<double, 5> Distortion() const { return {k1, k2, p1, p2, k3}; }
+  Eigen::Matrix3d CameraMatrix() const;
+
+  // A focal length and image size that make sense; says which field is wrong.
+  bool Check(std::string* error) const;
+
+  // A lens with the given horizontal field of view, principal point at the image centre.
+  static CameraIntrinsics FromFieldOfView(int width, int height, double horizontal_fov_deg);
+
+  bool operator==(const CameraIntrinsics&) const = default;
+};
+
+// Applies radial-tangential distortion to ideal normalized coordinates (x, y).
+// dist = {k1, k2, p1, p2, k3}.
+template <typename T>
+void DistortNormalized(const T* dist, const T& x, const T& y, T* xd, T* yd) {
+  const T x2 = x * x, y2 = y * y, xy = x * y;
+  const T r2 = x2 + y2;
+  const T radial = T(1.0) + r2 * (dist[0] + r2 * (dist[1] + r2 * dist[4]));
+  *xd = x * radial + T(2.0) * dist[2] * xy + dist[3] * (r2 + T(2.0) * x2);
+  *yd = y * radial + dist[2] * (r2 + T(2.0) * y2) + T(2.0) * dist[3] * xy;
+}
+
+// Projects a point given in the camera frame to pixels with the packed intrinsics
+// (IntrinsicIndex order). Points at or behind the camera centre are still projected;
+// callers that care test the depth themselves.
+template <typename T>
+void ProjectPoint(const T* intrinsics, const T* point_cam, T* pixel) {
+  const T x = point_cam[0] / point_cam[2];
+  const T y = point_cam[1] / point_cam[2];
+  T xd, yd;
+  DistortNormalized(intrinsics + kK1, x, y, &xd, &yd);
+  pixel[0] = intrinsics[kFx] * xd + intrinsics[kCx];
+  pixel[1] = intrinsics[kFy] * yd + intrinsics[kCy];
+}
+
+// Pixel of a point in the camera frame.
+Eigen::Vector2d Project(const CameraIntrinsics& camera, const Eigen::Vector3d& point_cam);
+
+// Ideal normalized coordinates whose distorted image is (xd, yd): Newton's method, run
+// until the distorted point is reproduced to `tolerance` (normalized units). Returns
+// nothing where the distortion cannot be inverted (beyond the fold of a strong barrel).
+// `initial` may carry a nearby solution (the previous frame's) to start from.
+std::optional<Eigen::Vector2d> UndistortNormalized(
+    const std::array<double, 5>& dist, const Eigen::Vector2d& distorted, double tolerance = 1e-12,
+    const std::optional<Eigen::Vector2d>& initial = std::nullopt);
+
+// Ideal normalized coordinates (x, y), i.e. the ray (x, y, 1), seen by a pixel.
+std::optional<Eigen::Vector2d> Unproject(const CameraIntrinsics& camera,
+                                         const Eigen::Vector2d& pixel);
+
+}  // namespace autocal

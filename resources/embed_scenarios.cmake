@@ -1,0 +1,11 @@
+# Writes a C++ file holding every scenario YAML as a raw string, keyed by its base name.
+set(body "#include \"resources/builtin_scenarios.h\"\n\nnamespace autocal {\n\n")
+string(APPEND body "const std::vector<BuiltInScenario>& BuiltInScenarios() {\n")
+string(APPEND body "  static const std::vector<BuiltInScenario> kScenarios = {\n")
+foreach(file ${INPUTS})
+  get_filename_component(name ${file} NAME_WE)
+  file(READ ${file} text)
+  string(APPEND body "    {\"${name}\", R\"autocal(${text})autocal\"},\n")
+endforeach()
+string(APPEND body "  };\n  return kScenarios;\n}\n\n}  // namespace autocal\n")
+file(WRITE ${OUTPUT} "${body}")
