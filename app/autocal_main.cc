@@ -1,0 +1,66 @@
+// autocal: the headless command-line tool. Parses the subcommand and hands over.
+#include <cstdio>
+#include <functional>
+#include <map>
+
+#include <QCoreApplication>
+#include <QStringList>
+
+#include "app/cli_commands.h"
+#include "pipeline/version.h"
+
+namespace {
+
+struct Subcommand {
+  std::function<int(const QStringList&)> run;
+  const char* summary;
+};
+
+const std::map<QString, Subcommand>& Subcommands() {
+  static const std::map<QString, Subcommand> kSubcommands = {
+      {"simulate", {autocal::cli::Simulate, "write a simulated recording from a scenario"}},
+      {"info", {autocal::cli::Info, "validate a recording and report its contents"}},
+  };
+  return kSubcommands;
+}
+
+void PrintUsage(std::FILE* out) {
+  std::fprintf(out,
+               "usage: autocal <command> [options]\n"
+               "       autocal <command> --help\n"
+               "       autocal --version\n\n"
+               "Keeps a camera + accelerometer rig calibrated without a target.\n\n"
+               "commands:\n");
+  for (const auto& [name, command] : Subcommands()) {
+    std::fprintf(out, "  %-10s %s\n", qPrintable(name), command.summary);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  QCoreApplication app(argc, argv);
+  QCoreApplication::setApplicationName("autocal");
+  QCoreApplication::setApplicationVersion(autocal::kVersion);
+  const QStringList arguments = QCoreApplication::arguments();
+  if (arguments.size() < 2) {
+    PrintUsage(stderr);
+    return 2;
+  }
+  const QString& first = arguments.at(1);
+  if (first == "--version" || first == "-v") {
+    std::printf("autocal %s\n", autocal::kVersion);
+    return 0;
+  }
+  if (first == "--help" || first == "-h" || first == "help") {
+    PrintUsage(stdout);
+    return 0;
+  }
+  const auto command = Subcommands().find(first);
+  if (command == Subcommands().end()) {
+    std::fprintf(stderr, "autocal: unknown command '%s'\n\n", qPrintable(first));
+    PrintUsage(stderr);
+    return 2;
+  }
+  return command->second.run(arguments.mid(2));
+}

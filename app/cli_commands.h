@@ -1,0 +1,13 @@
+// The subcommands of the `autocal` command-line tool. Each takes its arguments (without
+// the program and subcommand names) and returns the process exit code:
+// 0 success, 1 failure (the reason printed on stderr), 2 bad usage.
+#pragma once
+
+#include <QStringList>
+
+namespace autocal::cli {
+
+int Simulate(const QStringList& arguments);
+int Info(const QStringList& arguments);
+
+}  // namespace autocal::cli
