@@ -157,7 +157,7 @@ TEST_P(CameraModelTest, JetDerivativesMatchCentralDifferences) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Lenses, CameraModelTest, ::testing::ValuesIn(Lenses()),
-                         [](const auto& info) { return std::string(info.param.name); });
+                         [](const auto& test_param) { return std::string(test_param.param.name); });
 
 TEST(CameraModel, UndistortReportsTheFoldOfAStrongBarrel) {
   // r_d = r (1 - 0.35 r^2) peaks at r_d = 0.65: nothing beyond maps back to a ray.
