@@ -14,6 +14,8 @@ struct Lens {
   CameraIntrinsics camera;
 };
 
+void PrintTo(const Lens& lens, std::ostream* os) { *os << lens.name; }
+
 CameraIntrinsics MakeCamera(double fx, double fy, double cx, double cy, double k1, double k2,
                             double p1, double p2, double k3) {
   CameraIntrinsics c;
