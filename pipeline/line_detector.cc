@@ -1,0 +1,239 @@
+#include "pipeline/line_detector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
+
+namespace autocal {
+
+bool LineDetectorOptions::Check(std::string* error) const {
+  std::ostringstream why;
+  if (!(canny_low > 0 && canny_high >= canny_low)) {
+    why << "edge thresholds need 0 < canny_low <= canny_high";
+  } else if (!(theta_resolution_deg > 0 && theta_resolution_deg <= 5)) {
+    why << "theta_resolution_deg must be in (0, 5]";
+  } else if (!(rho_resolution_px > 0 && rho_resolution_px <= 5)) {
+    why << "rho_resolution_px must be in (0, 5]";
+  } else if (!(min_length_px >= 5)) {
+    why << "min_length_px must be at least 5";
+  } else if (!(max_gap_px >= 0)) {
+    why << "max_gap_px must not be negative";
+  } else if (!(min_fill > 0 && min_fill <= 1)) {
+    why << "min_fill must be in (0, 1]";
+  } else if (!(inlier_distance_px > 0)) {
+    why << "inlier_distance_px must be positive";
+  } else if (!(max_normal_angle_deg > 0 && max_normal_angle_deg < 90)) {
+    why << "max_normal_angle_deg must be in (0, 90)";
+  } else if (max_lines < 1) {
+    why << "max_lines must be at least 1";
+  }
+  if (why.str().empty()) return true;
+  if (error) *error = why.str();
+  return false;
+}
+
+Eigen::Vector2d LineSegment::Normal() const { return {std::cos(theta), std::sin(theta)}; }
+Eigen::Vector2d LineSegment::Direction() const { return {-std::sin(theta), std::cos(theta)}; }
+double LineSegment::Distance(const Eigen::Vector2d& p) const { return Normal().dot(p) - rho; }
+
+Gradients::Gradients(const cv::Mat& gray, double sigma) {
+  CV_Assert(gray.type() == CV_8UC1);
+  cv::GaussianBlur(gray, smoothed_, cv::Size(), sigma);
+  // Scharr-free Sobel scaled to grey levels per pixel.
+  cv::Sobel(smoothed_, gx_, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(smoothed_, gy_, CV_32F, 0, 1, 3, 1.0 / 8.0);
+}
+
+namespace {
+
+float Bilinear(const cv::Mat& image, double x, double y) {
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= image.cols || y0 + 1 >= image.rows) return 0.0f;
+  const float ax = static_cast<float>(x - x0), ay = static_cast<float>(y - y0);
+  const float* row0 = image.ptr<float>(y0) + x0;
+  const float* row1 = image.ptr<float>(y0 + 1) + x0;
+  return (1 - ay) * ((1 - ax) * row0[0] + ax * row0[1]) + ay * ((1 - ax) * row1[0] + ax * row1[1]);
+}
+
+}  // namespace
+
+double Gradients::Directional(const Eigen::Vector2d& p, const Eigen::Vector2d& d) const {
+  return d.x() * Bilinear(gx_, p.x(), p.y()) + d.y() * Bilinear(gy_, p.x(), p.y());
+}
+
+bool LocateEdgeAlongNormal(const Gradients& gradients, const Eigen::Vector2d& point,
+                           const Eigen::Vector2d& normal, double search_px, double min_strength,
+                           Eigen::Vector2d* edge) {
+  // Sample the edge strength every half pixel; edges of either polarity count.
+  constexpr double kStep = 0.5;
+  const int n = static_cast<int>(std::ceil(search_px / kStep));
+  double best = 0.0;
+  int best_k = 0;
+  std::vector<double> strength(2 * n + 3);
+  for (int k = -n - 1; k <= n + 1; ++k) {
+    strength[k + n + 1] = std::abs(gradients.Directional(point + k * kStep * normal, normal));
+  }
+  for (int k = -n; k <= n; ++k) {
+    if (strength[k + n + 1] > best) {
+      best = strength[k + n + 1];
+      best_k = k;
+    }
+  }
+  if (best < min_strength) return false;
+  const double left = strength[best_k + n], centre = best, right = strength[best_k + n + 2];
+  const double curvature = left - 2 * centre + right;
+  // A plateau (or a maximum at the search border) has no defined peak.
+  if (!(curvature < 0)) return false;
+  const double offset = 0.5 * (left - right) / curvature;
+  *edge = point + (best_k + offset) * kStep * normal;
+  return true;
+}
+
+LineFit FitLine(const std::vector<Eigen::Vector2d>& points) {
+  LineFit fit;
+  if (points.size() < 2) return fit;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& p : points) mean += p;
+  mean /= double(points.size());
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+  for (const auto& p : points) scatter += (p - mean) * (p - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(scatter);
+  Eigen::Vector2d normal = solver.eigenvectors().col(0);  // Smallest eigenvalue.
+  double theta = std::atan2(normal.y(), normal.x());
+  if (theta < 0) theta += M_PI;
+  if (theta >= M_PI) theta -= M_PI;
+  normal = {std::cos(theta), std::sin(theta)};
+  fit.theta = theta;
+  fit.rho = normal.dot(mean);
+  fit.rms = std::sqrt(std::max(0.0, solver.eigenvalues()(0)) / double(points.size()));
+  return fit;
+}
+
+namespace {
+
+// Sub-pixel edge points along the infinite line (rho, theta), ordered along it, each
+// with its position along the line. Pixels already claimed by a segment are skipped.
+struct EdgePoint {
+  double s;
+  Eigen::Vector2d point;
+  Eigen::Vector2i pixel;
+};
+
+// `visits` (CV_32S) marks pixels already looked at in this call with `stamp`.
+std::vector<EdgePoint> CollectEdgePoints(const cv::Mat& edges, const cv::Mat& claimed,
+                                         const Gradients& gradients, double rho, double theta,
+                                         const LineDetectorOptions& options, cv::Mat& visits,
+                                         int stamp) {
+  const Eigen::Vector2d normal(std::cos(theta), std::sin(theta));
+  const Eigen::Vector2d direction(-normal.y(), normal.x());
+  const Eigen::Vector2d foot = rho * normal;
+  // Parameter range of the line inside the image.
+  const double reach = std::hypot(edges.cols, edges.rows);
+  const double cos_limit = std::cos(options.max_normal_angle_deg * M_PI / 180.0);
+  const int band = static_cast<int>(std::ceil(options.inlier_distance_px));
+  std::vector<EdgePoint> points;
+  for (double s = -reach; s <= reach; s += 1.0) {
+    const Eigen::Vector2d on_line = foot + s * direction;
+    for (int k = -band; k <= band; ++k) {
+      const Eigen::Vector2d q = on_line + k * normal;
+      const int x = static_cast<int>(std::lround(q.x())), y = static_cast<int>(std::lround(q.y()));
+      if (x < 1 || y < 1 || x >= edges.cols - 1 || y >= edges.rows - 1) continue;
+      if (!edges.at<uint8_t>(y, x) || claimed.at<uint8_t>(y, x) || visits.at<int>(y, x) == stamp) {
+        continue;
+      }
+      visits.at<int>(y, x) = stamp;
+      const Eigen::Vector2d pixel(x, y);
+      if (std::abs(normal.dot(pixel) - rho) > options.inlier_distance_px) continue;
+      // The edge must run along the line: its gradient close to the line's normal.
+      const double along_normal = gradients.Directional(pixel, normal);
+      const double along_line = gradients.Directional(pixel, direction);
+      const double magnitude = std::hypot(along_normal, along_line);
+      if (magnitude <= 0 || std::abs(along_normal) / magnitude < cos_limit) continue;
+      Eigen::Vector2d edge;
+      if (!LocateEdgeAlongNormal(gradients, pixel, normal, 1.5, 1.0, &edge)) continue;
+      if (std::abs(normal.dot(edge) - rho) > options.inlier_distance_px) continue;
+      points.push_back({direction.dot(edge), edge, {x, y}});
+    }
+  }
+  std::sort(points.begin(), points.end(),
+            [](const EdgePoint& a, const EdgePoint& b) { return a.s < b.s; });
+  return points;
+}
+
+}  // namespace
+
+std::vector<LineSegment> DetectLines(const cv::Mat& gray, const LineDetectorOptions& options) {
+  CV_Assert(gray.type() == CV_8UC1);
+  const Gradients gradients(gray, 1.0);
+  cv::Mat edges;
+  cv::Canny(gradients.smoothed(), edges, options.canny_low, options.canny_high, 3, true);
+
+  // The linear Radon transform of the sparse edge map: each edge pixel votes for the
+  // (rho, theta) of every line through it. Peaks must be backed by a segment's worth
+  // of edge pixels.
+  std::vector<cv::Vec3f> peaks;
+  const int min_votes = static_cast<int>(options.min_length_px * options.min_fill);
+  cv::HoughLines(edges, peaks, options.rho_resolution_px,
+                 options.theta_resolution_deg * M_PI / 180.0, min_votes);
+  std::sort(peaks.begin(), peaks.end(),
+            [](const cv::Vec3f& a, const cv::Vec3f& b) { return a[2] > b[2]; });
+  // Weak peaks past a few per wanted line are clutter (texture, noise): not worth a look.
+  peaks.resize(std::min<size_t>(peaks.size(), 4 * options.max_lines));
+
+  std::vector<LineSegment> segments;
+  cv::Mat claimed = cv::Mat::zeros(edges.size(), CV_8U);
+  cv::Mat visits = cv::Mat::zeros(edges.size(), CV_32S);
+  int stamp = 0;
+  for (const cv::Vec3f& peak : peaks) {
+    if (int(segments.size()) >= options.max_lines) break;
+    double rho = peak[0], theta = peak[1];
+    // Refine the peak on sub-pixel edge points: the Radon bins quantize it.
+    std::vector<EdgePoint> points;
+    for (int iteration = 0; iteration < 2; ++iteration) {
+      points = CollectEdgePoints(edges, claimed, gradients, rho, theta, options, visits, ++stamp);
+      if (int(points.size()) < min_votes) break;
+      std::vector<Eigen::Vector2d> xy;
+      xy.reserve(points.size());
+      for (const auto& p : points) xy.push_back(p.point);
+      const LineFit fit = FitLine(xy);
+      rho = fit.rho;
+      theta = fit.theta;
+    }
+    if (int(points.size()) < min_votes) continue;
+
+    // Cut the line at gaps into segments.
+    size_t begin = 0;
+    for (size_t i = 1; i <= points.size(); ++i) {
+      if (i < points.size() && points[i].s - points[i - 1].s <= options.max_gap_px + 1.0) continue;
+      const double length = points[i - 1].s - points[begin].s;
+      const size_t count = i - begin;
+      if (length >= options.min_length_px && count >= options.min_fill * length) {
+        std::vector<Eigen::Vector2d> xy;
+        xy.reserve(count);
+        for (size_t j = begin; j < i; ++j) xy.push_back(points[j].point);
+        const LineFit fit = FitLine(xy);
+        LineSegment segment;
+        segment.rho = fit.rho;
+        segment.theta = fit.theta;
+        segment.rms_distance = fit.rms;
+        segment.support = static_cast<int>(count);
+        // End points: the extreme edge points projected onto the fitted line.
+        const Eigen::Vector2d n = segment.Normal();
+        segment.start = points[begin].point - segment.Distance(points[begin].point) * n;
+        segment.end = points[i - 1].point - segment.Distance(points[i - 1].point) * n;
+        for (size_t j = begin; j < i; ++j) {
+          claimed.at<uint8_t>(points[j].pixel.y(), points[j].pixel.x()) = 1;
+        }
+        segments.push_back(segment);
+        if (int(segments.size()) >= options.max_lines) break;
+      }
+      begin = i;
+    }
+  }
+  return segments;
+}
+
+}  // namespace autocal
