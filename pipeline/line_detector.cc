@@ -66,15 +66,16 @@ double Gradients::Directional(const Eigen::Vector2d& p, const Eigen::Vector2d& d
 
 bool LocateEdgeAlongNormal(const Gradients& gradients, const Eigen::Vector2d& point,
                            const Eigen::Vector2d& normal, double search_px, double min_strength,
-                           Eigen::Vector2d* edge) {
-  // Sample the edge strength every half pixel; edges of either polarity count.
+                           Eigen::Vector2d* edge, int polarity) {
+  // Sample the edge strength every half pixel.
   constexpr double kStep = 0.5;
   const int n = static_cast<int>(std::ceil(search_px / kStep));
   double best = 0.0;
   int best_k = 0;
   std::vector<double> strength(2 * n + 3);
   for (int k = -n - 1; k <= n + 1; ++k) {
-    strength[k + n + 1] = std::abs(gradients.Directional(point + k * kStep * normal, normal));
+    const double derivative = gradients.Directional(point + k * kStep * normal, normal);
+    strength[k + n + 1] = polarity == 0 ? std::abs(derivative) : std::max(0.0, polarity * derivative);
   }
   for (int k = -n; k <= n; ++k) {
     if (strength[k + n + 1] > best) {

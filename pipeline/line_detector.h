@@ -60,10 +60,11 @@ class Gradients {
 
 // Sub-pixel position of the strongest edge within `search_px` of `point` along `normal`:
 // the peak of a parabola through the largest directional derivative and its neighbours.
+// `polarity` +1 wants the image to brighten along `normal`, -1 to darken, 0 either.
 // Returns false when no edge rises above `min_strength` (grey levels per pixel).
 bool LocateEdgeAlongNormal(const Gradients& gradients, const Eigen::Vector2d& point,
                            const Eigen::Vector2d& normal, double search_px, double min_strength,
-                           Eigen::Vector2d* edge);
+                           Eigen::Vector2d* edge, int polarity = 0);
 
 // Total-least-squares line through points: returns (rho, theta) with theta in [0, pi),
 // and the RMS distance.

@@ -1,0 +1,257 @@
+#include "pipeline/radon_snake.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace autocal {
+
+bool SnakeOptions::Check(std::string* error) const {
+  std::ostringstream why;
+  if (!(spacing_px >= 3)) {
+    why << "spacing_px must be at least 3";
+  } else if (!(search_px > 0 && search_px < spacing_px)) {
+    why << "search_px must be positive and below spacing_px";
+  } else if (!(min_edge_strength > 0)) {
+    why << "min_edge_strength must be positive";
+  } else if (!(max_bend_deg > 0 && max_bend_deg < 90)) {
+    why << "max_bend_deg must be in (0, 90)";
+  } else if (!(min_length_px >= 2 * spacing_px)) {
+    why << "min_length_px must be at least two spacings";
+  } else if (max_grow_per_frame < 0) {
+    why << "max_grow_per_frame must not be negative";
+  } else if (!(border_margin_px >= 1)) {
+    why << "border_margin_px must be at least 1 (the gradient needs a neighbour)";
+  } else if (!(seed_max_distance > 0 && seed_max_distance <= 1)) {
+    why << "seed_max_distance must be in (0, 1]";
+  } else if (max_snakes < 1) {
+    why << "max_snakes must be at least 1";
+  }
+  if (why.str().empty()) return true;
+  if (error) *error = why.str();
+  return false;
+}
+
+std::vector<double> RadonSnake::BendAngles() const {
+  std::vector<double> bends;
+  for (size_t i = 1; i + 1 < vertices.size(); ++i) {
+    const Eigen::Vector2d a = vertices[i] - vertices[i - 1];
+    const Eigen::Vector2d b = vertices[i + 1] - vertices[i];
+    bends.push_back(std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)) * 180.0 / M_PI);
+  }
+  return bends;
+}
+
+double RadonSnake::Length() const {
+  double length = 0.0;
+  for (size_t i = 1; i < vertices.size(); ++i) length += (vertices[i] - vertices[i - 1]).norm();
+  return length;
+}
+
+namespace {
+
+// How far a hinge may stray from the snake's common motion in one frame, px.
+constexpr double kNarrowSearchPx = 2.0;
+
+bool Inside(const Eigen::Vector2d& p, cv::Size size, double margin) {
+  return p.x() >= margin && p.y() >= margin && p.x() <= size.width - 1 - margin &&
+         p.y() <= size.height - 1 - margin;
+}
+
+Eigen::Vector2d LeftNormal(const Eigen::Vector2d& tangent) {
+  return Eigen::Vector2d(-tangent.y(), tangent.x()).normalized();
+}
+
+Eigen::Vector2d Tangent(const std::vector<Eigen::Vector2d>& v, size_t i) {
+  const size_t before = i == 0 ? 0 : i - 1;
+  const size_t after = std::min(i + 1, v.size() - 1);
+  return (v[after] - v[before]).normalized();
+}
+
+// Points every `spacing` along the polyline, from its first vertex to its last.
+std::vector<Eigen::Vector2d> Resample(const std::vector<Eigen::Vector2d>& polyline,
+                                      double spacing) {
+  std::vector<Eigen::Vector2d> points = {polyline.front()};
+  double to_next = spacing;  // Arc length still to go before the next point.
+  for (size_t i = 1; i < polyline.size(); ++i) {
+    const Eigen::Vector2d a = polyline[i - 1], b = polyline[i];
+    const double length = (b - a).norm();
+    double at = 0.0;
+    while (length - at >= to_next) {
+      at += to_next;
+      points.push_back(a + (b - a) * (at / length));
+      to_next = spacing;
+    }
+    to_next -= length - at;
+  }
+  // Keep the true end unless it is almost on the last point.
+  if ((polyline.back() - points.back()).norm() > 0.5 * spacing) points.push_back(polyline.back());
+  return points;
+}
+
+// Moves every vertex onto the edge along its normal; returns which ones locked.
+std::vector<bool> Lock(std::vector<Eigen::Vector2d>* vertices, const Gradients& gradients,
+                       double search, double min_strength, int polarity) {
+  std::vector<Eigen::Vector2d>& v = *vertices;
+  std::vector<Eigen::Vector2d> moved = v;
+  std::vector<bool> locked(v.size(), false);
+  for (size_t i = 0; i < v.size(); ++i) {
+    const Eigen::Vector2d normal = LeftNormal(Tangent(v, i));
+    locked[i] = LocateEdgeAlongNormal(gradients, v[i], normal, search, min_strength, &moved[i],
+                                      polarity);
+  }
+  v = moved;
+  return locked;
+}
+
+// Sign of the edge across the polyline's left normal, by majority of its vertices.
+int Polarity(const std::vector<Eigen::Vector2d>& v, const Gradients& gradients) {
+  double sum = 0.0;
+  for (size_t i = 0; i < v.size(); ++i) {
+    sum += gradients.Directional(v[i], LeftNormal(Tangent(v, i))) > 0 ? 1.0 : -1.0;
+  }
+  return sum >= 0 ? 1 : -1;
+}
+
+// One frame of tracking. Returns false when the snake lost its edge.
+bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& options,
+           cv::Size size) {
+  std::vector<Eigen::Vector2d>& v = snake->vertices;
+  // Slide every hinge along its normal onto the edge in two passes: a wide search whose
+  // median displacement says how far the whole snake moved, then a narrow one from there,
+  // so that a hinge near a parallel edge does not jump to it.
+  std::vector<Eigen::Vector2d> normals(v.size());
+  for (size_t i = 0; i < v.size(); ++i) normals[i] = LeftNormal(Tangent(v, i));
+  std::vector<Eigen::Vector2d> wide = v;
+  const std::vector<bool> found =
+      Lock(&wide, gradients, options.search_px, options.min_edge_strength, snake->polarity);
+  std::vector<double> shifts;
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (found[i]) shifts.push_back(normals[i].dot(wide[i] - v[i]));
+  }
+  if (shifts.size() < 3) return false;
+  std::nth_element(shifts.begin(), shifts.begin() + shifts.size() / 2, shifts.end());
+  const double shift = shifts[shifts.size() / 2];
+  for (size_t i = 0; i < v.size(); ++i) v[i] += shift * normals[i];
+  std::vector<bool> locked =
+      Lock(&v, gradients, kNarrowSearchPx, options.min_edge_strength, snake->polarity);
+  for (size_t i = 0; i < v.size(); ++i) {
+    locked[i] = locked[i] && Inside(v[i], size, options.border_margin_px);
+  }
+
+  // Hinges that jumped to another edge bend sharply: unlock the worst one at a time.
+  for (size_t attempt = 0; attempt < v.size(); ++attempt) {
+    double worst = options.max_bend_deg;
+    size_t worst_index = 0;
+    for (size_t i = 1; i + 1 < v.size(); ++i) {
+      if (!locked[i]) continue;
+      const Eigen::Vector2d a = v[i] - v[i - 1], b = v[i + 1] - v[i];
+      const double bend = std::abs(std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b))) * 180 / M_PI;
+      if (bend > worst) {
+        worst = bend;
+        worst_index = i;
+      }
+    }
+    if (worst_index == 0) break;
+    locked[worst_index] = false;
+    // Put it between its neighbours so the next bend check sees the others fairly.
+    v[worst_index] = 0.5 * (v[worst_index - 1] + v[worst_index + 1]);
+  }
+
+  // Trim unlocked ends; a snake with too many lost hinges inside is gone.
+  size_t first = 0, last = v.size();
+  while (first < last && !locked[first]) ++first;
+  while (last > first && !locked[last - 1]) --last;
+  if (last - first < 3) return false;
+  const size_t inner_locked = std::count(locked.begin() + first, locked.begin() + last, true);
+  if (inner_locked < 0.7 * (last - first)) return false;
+  v = std::vector<Eigen::Vector2d>(v.begin() + first, v.begin() + last);
+  locked = std::vector<bool>(locked.begin() + first, locked.begin() + last);
+  // Unlocked inner hinges follow their locked neighbours.
+  for (size_t i = 1; i + 1 < v.size(); ++i) {
+    if (locked[i]) continue;
+    size_t next = i + 1;
+    while (!locked[next]) ++next;
+    v[i] = v[i - 1] + (v[next] - v[i - 1]) / double(next - i + 1);
+  }
+
+  // Grow at both ends while the edge goes on.
+  for (int end = 0; end < 2; ++end) {
+    if (end == 1) std::reverse(v.begin(), v.end());
+    for (int k = 0; k < options.max_grow_per_frame; ++k) {
+      const Eigen::Vector2d tangent = (v.back() - v[v.size() - 2]).normalized();
+      Eigen::Vector2d candidate = v.back() + options.spacing_px * tangent;
+      if (!Inside(candidate, size, options.border_margin_px)) break;
+      const int polarity = end == 1 ? -snake->polarity : snake->polarity;
+      if (!LocateEdgeAlongNormal(gradients, candidate, LeftNormal(tangent), 0.25 * options.spacing_px,
+                                 options.min_edge_strength, &candidate, polarity) ||
+          !Inside(candidate, size, options.border_margin_px)) {
+        break;
+      }
+      v.push_back(candidate);
+    }
+    if (end == 1) std::reverse(v.begin(), v.end());
+  }
+
+  // Even spacing again, then each resampled hinge back onto the curve (resampling
+  // puts points on chords, a little inside a bend).
+  v = Resample(v, options.spacing_px);
+  if (v.size() < 3) return false;
+  std::vector<Eigen::Vector2d> relocked = v;
+  const std::vector<bool> on_edge =
+      Lock(&relocked, gradients, 1.0, options.min_edge_strength, snake->polarity);
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (on_edge[i] && Inside(relocked[i], size, options.border_margin_px)) v[i] = relocked[i];
+  }
+  ++snake->age;
+  return snake->Length() >= options.min_length_px;
+}
+
+// Distance from a point to a polyline.
+double DistanceToPolyline(const Eigen::Vector2d& p, const std::vector<Eigen::Vector2d>& polyline) {
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t i = 1; i < polyline.size(); ++i) {
+    const Eigen::Vector2d a = polyline[i - 1], ab = polyline[i] - a;
+    const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+    best = std::min(best, (a + t * ab - p).norm());
+  }
+  return best;
+}
+
+}  // namespace
+
+void SnakeTracker::Update(const Gradients& gradients, const std::vector<LineSegment>& lines,
+                          const Eigen::Vector2d& principal_point, cv::Size image_size) {
+  std::vector<RadonSnake> kept;
+  for (RadonSnake& snake : snakes_) {
+    if (Track(&snake, gradients, options_, image_size)) kept.push_back(std::move(snake));
+  }
+  snakes_ = std::move(kept);
+
+  const double half_diagonal = 0.5 * std::hypot(image_size.width, image_size.height);
+  for (const LineSegment& line : lines) {
+    if (int(snakes_.size()) >= options_.max_snakes) break;
+    if (line.Length() < options_.min_length_px) continue;
+    if (std::abs(line.Distance(principal_point)) > options_.seed_max_distance * half_diagonal) {
+      continue;
+    }
+    // A line some snake already follows is not seeded twice.
+    const Eigen::Vector2d middle = 0.5 * (line.start + line.end);
+    const bool followed = std::any_of(snakes_.begin(), snakes_.end(), [&](const RadonSnake& s) {
+      return DistanceToPolyline(middle, s.vertices) < 2.0;
+    });
+    if (followed) continue;
+    RadonSnake snake;
+    snake.vertices = Resample({line.start, line.end}, options_.spacing_px);
+    if (snake.vertices.size() < 3) continue;
+    snake.polarity = Polarity(snake.vertices, gradients);
+    const std::vector<bool> locked = Lock(&snake.vertices, gradients, 1.5,
+                                          options_.min_edge_strength, snake.polarity);
+    if (std::count(locked.begin(), locked.end(), false) > 0) continue;
+    snake.id = next_id_++;
+    snakes_.push_back(std::move(snake));
+  }
+}
+
+}  // namespace autocal

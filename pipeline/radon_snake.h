@@ -1,0 +1,64 @@
+// Radon snakes (box 1): a straight line found by the Radon transform is cut into short
+// edges joined by hinges. Each frame the hinges slide along their normals onto the real
+// edge, the snake grows at its ends while the edge goes on, and so it stays locked on a
+// world line that the lens bends as it moves toward the border. The bend angle at every
+// inner hinge is zero exactly when the image of the line is straight.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "pipeline/line_detector.h"
+
+namespace autocal {
+
+struct SnakeOptions {
+  double spacing_px = 12.0;          // Length of one edge between hinges.
+  double search_px = 8.0;            // How far a snake may move along its normals per frame.
+  double min_edge_strength = 3.0;    // Weakest edge a hinge locks on, grey levels per px.
+  double max_bend_deg = 8.0;         // A sharper hinge has jumped to another edge.
+  double min_length_px = 60.0;       // Snakes shorter than this are seeded neither kept.
+  int max_grow_per_frame = 4;        // Hinges added at each end per frame, at most.
+  double border_margin_px = 2.0;     // Hinges stay this far inside the image.
+  // Only lines passing this close to the principal point seed snakes (fraction of the
+  // half-diagonal): there the lens bends them least, so the Radon transform sees them.
+  double seed_max_distance = 0.5;
+  int max_snakes = 24;               // Snakes tracked at once, at most.
+
+  bool Check(std::string* error) const;
+};
+
+struct RadonSnake {
+  int id = 0;
+  std::vector<Eigen::Vector2d> vertices;  // Hinges in pixels, ordered along the edge.
+  int polarity = 0;                       // Sign of the edge across the snake's left normal.
+  int age = 0;                            // Frames tracked.
+
+  // Bend at each inner vertex, degrees (vertices.size() - 2 values; signed).
+  std::vector<double> BendAngles() const;
+  double Length() const;
+};
+
+// Tracks snakes from frame to frame. Not thread-safe; one per video stream.
+class SnakeTracker {
+ public:
+  explicit SnakeTracker(const SnakeOptions& options = {}) : options_(options) {}
+
+  // Moves every snake onto the edges of this frame, drops the ones that lost their edge,
+  // and seeds new ones from `lines` near `principal_point`.
+  void Update(const Gradients& gradients, const std::vector<LineSegment>& lines,
+              const Eigen::Vector2d& principal_point, cv::Size image_size);
+
+  const std::vector<RadonSnake>& snakes() const { return snakes_; }
+  void set_options(const SnakeOptions& options) { options_ = options; }
+  void Reset() { snakes_.clear(); }
+
+ private:
+  SnakeOptions options_;
+  std::vector<RadonSnake> snakes_;
+  int next_id_ = 1;
+};
+
+}  // namespace autocal
