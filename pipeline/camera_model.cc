@@ -69,23 +69,6 @@ Eigen::Vector2d Project(const CameraIntrinsics& camera, const Eigen::Vector3d& p
   return pixel;
 }
 
-namespace {
-
-// Jacobian of DistortNormalized with respect to (x, y).
-Eigen::Matrix2d DistortionJacobian(const std::array<double, 5>& d, double x, double y) {
-  const double k1 = d[0], k2 = d[1], p1 = d[2], p2 = d[3], k3 = d[4];
-  const double r2 = x * x + y * y;
-  const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-  const double dradial_dr2 = k1 + r2 * (2.0 * k2 + 3.0 * r2 * k3);
-  Eigen::Matrix2d j;
-  j(0, 0) = radial + 2.0 * x * x * dradial_dr2 + 2.0 * p1 * y + 6.0 * p2 * x;
-  j(0, 1) = 2.0 * x * y * dradial_dr2 + 2.0 * p1 * x + 2.0 * p2 * y;
-  j(1, 0) = 2.0 * x * y * dradial_dr2 + 2.0 * p1 * x + 2.0 * p2 * y;
-  j(1, 1) = radial + 2.0 * y * y * dradial_dr2 + 6.0 * p1 * y + 2.0 * p2 * x;
-  return j;
-}
-
-}  // namespace
 
 std::optional<Eigen::Vector2d> UndistortNormalized(const std::array<double, 5>& dist,
                                                    const Eigen::Vector2d& distorted,
@@ -98,7 +81,8 @@ std::optional<Eigen::Vector2d> UndistortNormalized(const std::array<double, 5>& 
     DistortNormalized(dist.data(), x.x(), x.y(), &reproduced.x(), &reproduced.y());
     const Eigen::Vector2d residual = reproduced - distorted;
     if (residual.norm() <= tolerance) return x;
-    const Eigen::Matrix2d j = DistortionJacobian(dist, x.x(), x.y());
+    Eigen::Matrix<double, 2, 2, Eigen::RowMajor> j;
+    DistortionJacobian(dist.data(), x.x(), x.y(), j.data());
     const double det = j.determinant();
     // A vanishing or negative determinant means we crossed the fold of the lens: there
     // the model is not invertible and no ray maps to this pixel.

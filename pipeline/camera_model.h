@@ -51,6 +51,39 @@ void DistortNormalized(const T* dist, const T& x, const T& y, T* xd, T* yd) {
   *yd = y * radial + dist[2] * (r2 + T(2.0) * y2) + T(2.0) * dist[3] * xy;
 }
 
+// Jacobian of DistortNormalized with respect to (x, y), row-major: d(xd, yd)/d(x, y).
+template <typename T>
+void DistortionJacobian(const T* dist, const T& x, const T& y, T* jacobian) {
+  const T r2 = x * x + y * y;
+  const T radial = T(1.0) + r2 * (dist[0] + r2 * (dist[1] + r2 * dist[4]));
+  const T dradial_dr2 = dist[0] + r2 * (T(2.0) * dist[1] + T(3.0) * r2 * dist[4]);
+  const T cross = T(2.0) * x * y * dradial_dr2 + T(2.0) * dist[2] * x + T(2.0) * dist[3] * y;
+  jacobian[0] = radial + T(2.0) * x * x * dradial_dr2 + T(2.0) * dist[2] * y + T(6.0) * dist[3] * x;
+  jacobian[1] = cross;
+  jacobian[2] = cross;
+  jacobian[3] = radial + T(2.0) * y * y * dradial_dr2 + T(6.0) * dist[2] * y + T(2.0) * dist[3] * x;
+}
+
+// Inverse distortion by a fixed number of Newton steps from (xd, yd), for solvers that
+// differentiate through it: once converged, the derivatives carried by Ceres' jets are
+// those of the exact inverse (implicit function theorem). Enough steps for the lenses
+// we meet converge to machine precision (see UndistortNormalized for a checked version).
+template <typename T>
+void UndistortNormalizedNewton(const T* dist, const T& xd, const T& yd, int steps, T* x, T* y) {
+  *x = xd;
+  *y = yd;
+  for (int i = 0; i < steps; ++i) {
+    T rx, ry, j[4];
+    DistortNormalized(dist, *x, *y, &rx, &ry);
+    DistortionJacobian(dist, *x, *y, j);
+    rx -= xd;
+    ry -= yd;
+    const T det = j[0] * j[3] - j[1] * j[2];
+    *x -= (j[3] * rx - j[1] * ry) / det;
+    *y -= (j[0] * ry - j[2] * rx) / det;
+  }
+}
+
 // Projects a point given in the camera frame to pixels with the packed intrinsics
 // (IntrinsicIndex order). Points at or behind the camera centre are still projected;
 // callers that care test the depth themselves.

@@ -1,0 +1,243 @@
+#include "pipeline/plumb_line.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <sstream>
+
+#include <ceres/ceres.h>
+
+#include "pipeline/line_detector.h"
+
+namespace autocal {
+
+bool PlumbLineOptions::Check(std::string* error) const {
+  std::ostringstream why;
+  if (!(loss_scale_px > 0)) {
+    why << "loss_scale_px must be positive";
+  } else if (!(outlier_factor > 1)) {
+    why << "outlier_factor must be above 1";
+  } else if (min_lines < 2) {
+    why << "min_lines must be at least 2";
+  } else if (min_points_per_line < 3) {
+    why << "min_points_per_line must be at least 3";
+  } else if (max_iterations < 1) {
+    why << "max_iterations must be at least 1";
+  }
+  if (why.str().empty()) return true;
+  if (error) *error = why.str();
+  return false;
+}
+
+namespace {
+
+// Newton steps inside the residual: converges to machine precision from the distorted
+// point for the barrel lenses we meet (|k1| <= 0.4 out to the image corners).
+constexpr int kNewtonSteps = 10;
+
+// Distance, in pixels, of one undistorted point from its line x cos(t) + y sin(t) = rho
+// in ideal normalized coordinates.
+struct StraightnessCost {
+  StraightnessCost(const Eigen::Vector2d& pixel, double scale) : pixel_(pixel), scale_(scale) {}
+
+  template <typename T>
+  bool operator()(const T* intrinsics, const T* line, T* residual) const {
+    const T xd = (T(pixel_.x()) - intrinsics[kCx]) / intrinsics[kFx];
+    const T yd = (T(pixel_.y()) - intrinsics[kCy]) / intrinsics[kFy];
+    T x, y;
+    UndistortNormalizedNewton(intrinsics + kK1, xd, yd, kNewtonSteps, &x, &y);
+    residual[0] = T(scale_) * (cos(line[0]) * x + sin(line[0]) * y - line[1]);
+    return true;
+  }
+
+  Eigen::Vector2d pixel_;
+  double scale_;
+};
+
+std::vector<Eigen::Vector2d> Undistorted(const LineObservation& line, const CameraIntrinsics& c) {
+  std::vector<Eigen::Vector2d> points;
+  const auto dist = c.Distortion();
+  for (const Eigen::Vector2d& p : line.points) {
+    double x, y;
+    UndistortNormalizedNewton(dist.data(), (p.x() - c.cx) / c.fx, (p.y() - c.cy) / c.fy,
+                              kNewtonSteps, &x, &y);
+    points.emplace_back(x, y);
+  }
+  return points;
+}
+
+// RMS distance (px) of each line's undistorted points to its own best straight line.
+std::vector<double> PerLineRms(const std::vector<const LineObservation*>& lines,
+                               const CameraIntrinsics& camera) {
+  std::vector<double> rms;
+  for (const LineObservation* line : lines) {
+    rms.push_back(camera.fx * FitLine(Undistorted(*line, camera)).rms);
+  }
+  return rms;
+}
+
+double PooledRms(const std::vector<const LineObservation*>& lines,
+                 const std::vector<double>& per_line) {
+  double sum = 0.0;
+  size_t count = 0;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    sum += per_line[i] * per_line[i] * lines[i]->points.size();
+    count += lines[i]->points.size();
+  }
+  return count ? std::sqrt(sum / double(count)) : 0.0;
+}
+
+struct Solve {
+  bool converged = false;
+  std::string report;
+  std::array<double, kNumIntrinsics> intrinsics;
+  Eigen::MatrixXd covariance;
+};
+
+Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIntrinsics& start,
+                const PlumbLineOptions& options) {
+  Solve solve;
+  solve.intrinsics = start.Packed();
+  ceres::Problem problem;
+  std::vector<std::array<double, 2>> line_parameters(lines.size());
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const LineFit fit = FitLine(Undistorted(*lines[i], start));
+    line_parameters[i] = {fit.theta, fit.rho};
+    for (const Eigen::Vector2d& pixel : lines[i]->points) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<StraightnessCost, 1, kNumIntrinsics, 2>(
+              new StraightnessCost(pixel, start.fx)),
+          new ceres::CauchyLoss(options.loss_scale_px), solve.intrinsics.data(),
+          line_parameters[i].data());
+    }
+  }
+  std::vector<int> fixed = {kFx, kFy};
+  if (!options.estimate_centre) fixed.insert(fixed.end(), {kCx, kCy});
+  if (!options.estimate_tangential) fixed.insert(fixed.end(), {kP1, kP2});
+  if (!options.estimate_k3) fixed.push_back(kK3);
+  problem.SetManifold(solve.intrinsics.data(), new ceres::SubsetManifold(kNumIntrinsics, fixed));
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  solve.converged = summary.IsSolutionUsable();
+  solve.report = summary.BriefReport();
+  if (!solve.converged) return solve;
+
+  std::vector<int> free;
+  for (int i = 0; i < kNumIntrinsics; ++i) {
+    if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) free.push_back(i);
+  }
+  ceres::Covariance::Options covariance_options;
+  ceres::Covariance covariance(covariance_options);
+  const std::vector<std::pair<const double*, const double*>> blocks = {
+      {solve.intrinsics.data(), solve.intrinsics.data()}};
+  if (covariance.Compute(blocks, &problem)) {
+    Eigen::Matrix<double, kNumIntrinsics, kNumIntrinsics, Eigen::RowMajor> full;
+    covariance.GetCovarianceBlock(solve.intrinsics.data(), solve.intrinsics.data(), full.data());
+    solve.covariance.resize(free.size(), free.size());
+    for (size_t a = 0; a < free.size(); ++a) {
+      for (size_t b = 0; b < free.size(); ++b) solve.covariance(a, b) = full(free[a], free[b]);
+    }
+  }
+  return solve;
+}
+
+}  // namespace
+
+PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observations,
+                                   const CameraIntrinsics& initial,
+                                   const PlumbLineOptions& options) {
+  PlumbLineResult result;
+  result.estimate = initial;
+  std::vector<const LineObservation*> lines;
+  for (const LineObservation& line : observations) {
+    if (int(line.points.size()) >= options.min_points_per_line) lines.push_back(&line);
+  }
+  if (int(lines.size()) < options.min_lines) {
+    std::ostringstream message;
+    message << "no estimate: " << lines.size() << " lines with at least "
+            << options.min_points_per_line << " points, " << options.min_lines << " needed";
+    result.message = message.str();
+    return result;
+  }
+
+  Solve solve = SolveOnce(lines, initial, options);
+  if (solve.converged) {
+    // Edges curved in the world (or mistracked) stand out after a first solve: drop them
+    // and solve again from there.
+    const CameraIntrinsics first =
+        CameraIntrinsics::FromPacked(solve.intrinsics, initial.width, initial.height);
+    std::vector<double> rms = PerLineRms(lines, first);
+    std::vector<double> sorted = rms;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const double limit = options.outlier_factor * std::max(sorted[sorted.size() / 2], 0.05);
+    std::vector<const LineObservation*> inliers;
+    for (size_t i = 0; i < lines.size(); ++i) {
+      if (rms[i] <= limit) inliers.push_back(lines[i]);
+    }
+    result.lines_rejected = static_cast<int>(lines.size() - inliers.size());
+    if (result.lines_rejected > 0 && int(inliers.size()) >= options.min_lines) {
+      lines = inliers;
+      solve = SolveOnce(lines, first, options);
+    } else {
+      result.lines_rejected = 0;
+    }
+  }
+  if (!solve.converged) {
+    result.message = "no estimate: the solver failed: " + solve.report;
+    return result;
+  }
+  result.estimate = CameraIntrinsics::FromPacked(solve.intrinsics, initial.width, initial.height);
+  result.covariance = solve.covariance;
+  result.lines_used = static_cast<int>(lines.size());
+  for (const LineObservation* line : lines) result.points_used += int(line->points.size());
+  result.rms_before_px = PooledRms(lines, PerLineRms(lines, initial));
+  result.rms_after_px = PooledRms(lines, PerLineRms(lines, result.estimate));
+  result.usable = true;
+  std::ostringstream message;
+  message << "k1=" << result.estimate.k1 << " k2=" << result.estimate.k2 << " from "
+          << result.lines_used << " lines (" << result.lines_rejected << " rejected), "
+          << "straightness " << result.rms_before_px << " -> " << result.rms_after_px << " px";
+  result.message = message.str();
+  return result;
+}
+
+CameraIntrinsics ScaleDistortionToFocal(const CameraIntrinsics& camera, double fx, double fy) {
+  CameraIntrinsics scaled = camera;
+  const double s = 0.5 * (fx / camera.fx + fy / camera.fy);
+  scaled.fx = fx;
+  scaled.fy = fy;
+  scaled.k1 = camera.k1 * s * s;
+  scaled.k2 = camera.k2 * std::pow(s, 4);
+  scaled.k3 = camera.k3 * std::pow(s, 6);
+  scaled.p1 = camera.p1 * s;
+  scaled.p2 = camera.p2 * s;
+  return scaled;
+}
+
+double MaxUndistortionDifference(const CameraIntrinsics& a, const CameraIntrinsics& b,
+                                 double radius_fraction, int grid_step_px) {
+  const Eigen::Vector2d centre(0.5 * (a.width - 1), 0.5 * (a.height - 1));
+  const double radius = radius_fraction * 0.5 * std::hypot(a.width, a.height);
+  double worst = 0.0;
+  for (int y = 0; y < a.height; y += grid_step_px) {
+    for (int x = 0; x < a.width; x += grid_step_px) {
+      const Eigen::Vector2d pixel(x, y);
+      if ((pixel - centre).norm() > radius) continue;
+      const auto ray_a = Unproject(a, pixel), ray_b = Unproject(b, pixel);
+      if (!ray_a || !ray_b) return std::numeric_limits<double>::infinity();
+      const Eigen::Vector2d ideal_a(a.fx * ray_a->x() + a.cx, a.fy * ray_a->y() + a.cy);
+      const Eigen::Vector2d ideal_b(b.fx * ray_b->x() + b.cx, b.fy * ray_b->y() + b.cy);
+      worst = std::max(worst, (ideal_a - ideal_b).norm());
+    }
+  }
+  return worst;
+}
+
+}  // namespace autocal

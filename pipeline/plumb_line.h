@@ -1,0 +1,66 @@
+// Box 2, distortion by the plumb-line principle: the world lines behind the snakes are
+// straight, so the distortion is what makes every undistorted snake straight. Solved
+// with Ceres over all snakes gathered over time, robust to edges that are curved in the
+// world.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "pipeline/camera_model.h"
+
+namespace autocal {
+
+struct PlumbLineOptions {
+  bool estimate_k3 = false;          // Free k3 (wide lenses); k1, k2 are always free.
+  bool estimate_tangential = false;  // Free p1, p2.
+  bool estimate_centre = false;      // Free distortion centre (= principal point).
+  double loss_scale_px = 0.5;        // Cauchy loss scale on point-to-line distances.
+  double outlier_factor = 3.0;       // Lines with RMS above this times the median are dropped.
+  int min_lines = 6;                 // Fewer lines give no estimate.
+  int min_points_per_line = 5;       // Shorter polylines are ignored.
+  int max_iterations = 50;           // Levenberg-Marquardt iterations per solve.
+
+  bool Check(std::string* error) const;
+};
+
+// Distorted pixel points that lie on one straight world line (a snake, a line segment).
+struct LineObservation {
+  std::vector<Eigen::Vector2d> points;
+};
+
+struct PlumbLineResult {
+  bool usable = false;       // False: not enough material or the solve failed.
+  std::string message;       // Why not usable, or a one-line report.
+  CameraIntrinsics estimate; // The initial camera with the estimated distortion.
+  // RMS distance of the undistorted points to their best lines, px, with the initial and
+  // the estimated distortion (all lines used for the estimate).
+  double rms_before_px = 0.0;
+  double rms_after_px = 0.0;
+  int lines_used = 0;
+  int lines_rejected = 0;    // Curved in the world (or mistracked): left out.
+  int points_used = 0;
+  // Covariance of the free distortion coefficients, in the order k1, k2[, p1, p2][, k3].
+  Eigen::MatrixXd covariance;
+};
+
+// Estimates the distortion (and, if asked, the distortion centre) starting from
+// `initial`. Its focal lengths are held: the plumb-line constraint fixes the distortion
+// in pixels, so the normalized coefficients are tied to the focal length they were
+// estimated with (see ScaleDistortionToFocal).
+PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& lines,
+                                   const CameraIntrinsics& initial,
+                                   const PlumbLineOptions& options);
+
+// The same distortion in pixels, expressed for another focal length: radial terms scale
+// with powers of f_new / f_old, tangential ones linearly.
+CameraIntrinsics ScaleDistortionToFocal(const CameraIntrinsics& camera, double fx, double fy);
+
+// Largest displacement, over all pixels within `radius_fraction` of the half-diagonal
+// from the image centre, between where two lenses put the undistorted point (px).
+double MaxUndistortionDifference(const CameraIntrinsics& a, const CameraIntrinsics& b,
+                                 double radius_fraction, int grid_step_px = 8);
+
+}  // namespace autocal

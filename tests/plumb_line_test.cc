@@ -1,0 +1,123 @@
+#include "pipeline/plumb_line.h"
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+namespace autocal {
+namespace {
+
+CameraIntrinsics Lens(double k1, double k2) {
+  CameraIntrinsics c;
+  c.width = 640;
+  c.height = 480;
+  c.fx = 427.0;
+  c.fy = 427.8;
+  c.cx = 322.5;
+  c.cy = 237.0;
+  c.k1 = k1;
+  c.k2 = k2;
+  return c;
+}
+
+// Points of random straight world lines seen through `camera`, each point displaced by
+// Gaussian noise of `noise_px`; `curved` more lines bent in the world (arcs).
+std::vector<LineObservation> SampleLines(const CameraIntrinsics& camera, int count, int curved,
+                                         double noise_px, cv::RNG& rng) {
+  std::vector<LineObservation> lines;
+  for (int i = 0; i < count + curved; ++i) {
+    const double angle = rng.uniform(0.0, M_PI);
+    const Eigen::Vector2d normal(std::cos(angle), std::sin(angle));
+    const Eigen::Vector2d direction(-normal.y(), normal.x());
+    const double offset = rng.uniform(-0.9, 0.9);
+    const double bend = i < count ? 0.0 : 0.15;  // Sagitta of an arc, normalized units.
+    LineObservation line;
+    for (double s = -1.5; s <= 1.5; s += 0.03) {
+      const Eigen::Vector2d x = (offset + bend * (1 - s * s)) * normal + s * direction;
+      const Eigen::Vector2d pixel = Project(camera, {x.x(), x.y(), 1.0});
+      if (pixel.x() < 2 || pixel.y() < 2 || pixel.x() > camera.width - 3 ||
+          pixel.y() > camera.height - 3) {
+        continue;
+      }
+      line.points.push_back(pixel + Eigen::Vector2d(rng.gaussian(noise_px), rng.gaussian(noise_px)));
+    }
+    if (line.points.size() >= 8) lines.push_back(line);
+  }
+  return lines;
+}
+
+TEST(PlumbLine, DefaultOptionsAreValid) {
+  std::string error;
+  EXPECT_TRUE(PlumbLineOptions().Check(&error)) << error;
+  PlumbLineOptions bad;
+  bad.outlier_factor = 0.5;
+  EXPECT_FALSE(bad.Check(&error));
+  EXPECT_NE(error.find("outlier_factor"), std::string::npos);
+}
+
+TEST(PlumbLine, RecoversStrongBarrelFromNoDistortion) {
+  const CameraIntrinsics truth = Lens(-0.3, 0.1);
+  cv::RNG rng(11);
+  const auto lines = SampleLines(truth, 30, 0, 0.1, rng);
+  const CameraIntrinsics start = Lens(0.0, 0.0);
+  const PlumbLineResult result = EstimateDistortion(lines, start, PlumbLineOptions());
+  ASSERT_TRUE(result.usable) << result.message;
+  const double error = MaxUndistortionDifference(result.estimate, truth, 0.9);
+  std::printf("%s; worst displacement error %.3f px\n", result.message.c_str(), error);
+  EXPECT_LT(error, 0.5) << "px, out to 90% of the half-diagonal";
+  EXPECT_GT(result.rms_before_px, 2.0);
+  EXPECT_LT(result.rms_after_px, 0.2);
+  ASSERT_EQ(result.covariance.rows(), 2);
+  EXPECT_GT(result.covariance(0, 0), 0.0);
+  EXPECT_LT(std::sqrt(result.covariance(0, 0)), 0.01) << "k1 standard deviation";
+}
+
+TEST(PlumbLine, RejectsEdgesCurvedInTheWorld) {
+  const CameraIntrinsics truth = Lens(-0.3, 0.1);
+  cv::RNG rng(5);
+  const auto lines = SampleLines(truth, 30, 4, 0.1, rng);
+  const PlumbLineResult result = EstimateDistortion(lines, Lens(0, 0), PlumbLineOptions());
+  ASSERT_TRUE(result.usable) << result.message;
+  EXPECT_GE(result.lines_rejected, 3);
+  EXPECT_LT(MaxUndistortionDifference(result.estimate, truth, 0.9), 0.5);
+}
+
+TEST(PlumbLine, FindsNoSpuriousDistortionOnANearlyPerfectLens) {
+  const CameraIntrinsics truth = Lens(-0.001, 0.0);  // Below 0.5 px everywhere.
+  cv::RNG rng(2);
+  const auto lines = SampleLines(truth, 30, 0, 0.1, rng);
+  const PlumbLineResult result = EstimateDistortion(lines, Lens(0, 0), PlumbLineOptions());
+  ASSERT_TRUE(result.usable) << result.message;
+  EXPECT_LT(MaxUndistortionDifference(result.estimate, Lens(0, 0), 0.9), 0.5)
+      << "against no distortion at all";
+  EXPECT_LT(MaxUndistortionDifference(result.estimate, truth, 0.9), 0.5);
+}
+
+TEST(PlumbLine, SaysWhyWhenThereAreTooFewLines) {
+  cv::RNG rng(1);
+  const auto lines = SampleLines(Lens(-0.3, 0.1), 3, 0, 0.1, rng);
+  const PlumbLineResult result = EstimateDistortion(lines, Lens(0, 0), PlumbLineOptions());
+  EXPECT_FALSE(result.usable);
+  EXPECT_NE(result.message.find("lines"), std::string::npos) << result.message;
+}
+
+TEST(PlumbLine, ScalingToAnotherFocalKeepsThePixelMap) {
+  CameraIntrinsics camera = Lens(-0.3, 0.1);
+  camera.fy = camera.fx;
+  const CameraIntrinsics scaled = ScaleDistortionToFocal(camera, 1.05 * camera.fx, 1.05 * camera.fy);
+  // Undistorted pixel positions relative to the centre agree for every pixel.
+  for (int y = 0; y < camera.height; y += 40) {
+    for (int x = 0; x < camera.width; x += 40) {
+      const auto a = Unproject(camera, {x, y}), b = Unproject(scaled, {x, y});
+      ASSERT_TRUE(a && b);
+      EXPECT_NEAR(camera.fx * a->x(), scaled.fx * b->x(), 1e-6);
+      EXPECT_NEAR(camera.fy * a->y(), scaled.fy * b->y(), 1e-6);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace autocal
