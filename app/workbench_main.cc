@@ -1,0 +1,141 @@
+// autocal-workbench: the Qt workbench. Parses the command line and opens the main window.
+#include <cstdio>
+#include <memory>
+
+#include <QApplication>
+#include <QCommandLineOption>
+#include <QCommandLineParser>
+#include <QImage>
+#include <QPixmap>
+#include <QStringList>
+#include <QTimer>
+
+#include "pipeline/version.h"
+#include "widgets/main_window.h"
+
+namespace {
+
+struct Options {
+  QCommandLineOption help;
+  QCommandLineOption version;
+  QCommandLineOption screenshot{
+      QStringLiteral("screenshot"),
+      QStringLiteral("Save a PNG of the main window to <file>: when --quit-after ends the run, "
+                     "or else 1 s after the first frame is shown (then quit)."),
+      QStringLiteral("file")};
+  QCommandLineOption quit_after{QStringLiteral("quit-after"),
+                                QStringLiteral("Quit after <ms> milliseconds."),
+                                QStringLiteral("ms")};
+};
+
+Options Configure(QCommandLineParser* parser) {
+  parser->setApplicationDescription(
+      QStringLiteral(
+          "Workbench of autocal: plays a camera + accelerometer recording with its plots.\n"
+          "Without SOURCE it opens the built-in simulated vest (%1).")
+          .arg(QString::fromLatin1(autocal::MainWindow::kDefaultSource)));
+  Options options{parser->addHelpOption(), parser->addVersionOption()};
+  parser->addOption(options.screenshot);
+  parser->addOption(options.quit_after);
+  parser->addPositionalArgument(
+      QStringLiteral("source"),
+      QStringLiteral("Recording folder, video file with an accelerometer CSV, or sim:SPEC "
+                     "(e.g. sim:corridor,lens=sonnar,seconds=20)."),
+      QStringLiteral("[SOURCE]"));
+  return options;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  QCoreApplication::setOrganizationName(QStringLiteral("autocal"));
+  QCoreApplication::setApplicationName(QStringLiteral("autocal-workbench"));
+  QCoreApplication::setApplicationVersion(QString::fromLatin1(autocal::kVersion));
+
+  // --help and --version must work without a display, so they are answered before
+  // QApplication connects to one. Anything else (Qt's own -platform, -style, ...) waits
+  // for the full parse below.
+  {
+    QStringList arguments;
+    for (int i = 0; i < argc; ++i) arguments << QString::fromLocal8Bit(argv[i]);
+    QCommandLineParser parser;
+    const Options options = Configure(&parser);
+    if (parser.parse(arguments)) {
+      if (parser.isSet(options.version)) {
+        std::printf("autocal-workbench %s\n", autocal::kVersion);
+        return 0;
+      }
+      if (parser.isSet(options.help)) {
+        std::printf("%s", qUtf8Printable(parser.helpText()));
+        return 0;
+      }
+    }
+  }
+
+  QApplication app(argc, argv);
+  QCommandLineParser parser;
+  const Options options = Configure(&parser);
+  if (!parser.parse(QCoreApplication::arguments())) {
+    std::fprintf(stderr, "autocal-workbench: %s\n", qUtf8Printable(parser.errorText()));
+    return 2;
+  }
+  const QStringList positional = parser.positionalArguments();
+  if (positional.size() > 1) {
+    std::fprintf(stderr, "autocal-workbench: one SOURCE at most, got %lld\n",
+                 static_cast<long long>(positional.size()));
+    return 2;
+  }
+  int quit_after_ms = -1;
+  if (parser.isSet(options.quit_after)) {
+    bool ok = false;
+    quit_after_ms = parser.value(options.quit_after).toInt(&ok);
+    if (!ok || quit_after_ms < 0) {
+      std::fprintf(stderr, "autocal-workbench: --quit-after wants milliseconds >= 0, got '%s'\n",
+                   qUtf8Printable(parser.value(options.quit_after)));
+      return 2;
+    }
+  }
+  const QString screenshot = parser.value(options.screenshot);
+  const bool unattended = quit_after_ms >= 0 || !screenshot.isEmpty();
+
+  autocal::MainWindow window;
+  window.show();
+
+  bool screenshot_failed = false;
+  auto finish = [&] {
+    if (!screenshot.isEmpty()) {
+      if (window.grab().toImage().save(screenshot, "PNG")) {
+        std::fprintf(stderr, "autocal-workbench: screenshot saved to %s\n",
+                     qUtf8Printable(screenshot));
+      } else {
+        std::fprintf(stderr, "autocal-workbench: cannot write the screenshot %s\n",
+                     qUtf8Printable(screenshot));
+        screenshot_failed = true;
+      }
+    }
+    window.close();
+    QCoreApplication::quit();  // Also when an error dialog is still open.
+  };
+  if (quit_after_ms >= 0) {
+    QTimer::singleShot(quit_after_ms, &window, finish);
+  } else if (!screenshot.isEmpty()) {
+    // One second after the first frame (or after a failure to open), so the picture
+    // shows the window settled.
+    auto settle = [&] { QTimer::singleShot(1000, &window, finish); };
+    QObject::connect(&window, &autocal::MainWindow::openFailed, &window, settle);
+    auto first_frame = std::make_shared<QMetaObject::Connection>();
+    *first_frame =
+        QObject::connect(&window, &autocal::MainWindow::frameShown, &window, [first_frame, settle] {
+          QObject::disconnect(*first_frame);
+          settle();
+        });
+  }
+
+  window.open(positional.isEmpty() ? QString::fromLatin1(autocal::MainWindow::kDefaultSource)
+                                   : positional.front());
+  const int status = app.exec();
+  if (status != 0) return status;
+  // Smoke tests and bootstrap runs rely on the exit status to tell that it worked.
+  if (unattended && (screenshot_failed || window.sequence() == nullptr)) return 1;
+  return 0;
+}

@@ -1,0 +1,201 @@
+#include "widgets/accel_plot.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <QMouseEvent>
+#include <QPen>
+#include <QWheelEvent>
+#include <QtCharts/QLegend>
+#include <QtCharts/QLegendMarker>
+
+#include "devices/sequence.h"
+#include "widgets/plot_decimation.h"
+
+namespace autocal {
+namespace {
+
+// A tick interval of 1, 2 or 5 times a power of ten giving about `ticks` ticks.
+double NiceTickInterval(double span, int ticks) {
+  const double raw = span / std::max(ticks, 1);
+  const double power = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double step : {1.0, 2.0, 5.0}) {
+    if (raw <= step * power) return step * power;
+  }
+  return 10.0 * power;
+}
+
+}  // namespace
+
+AccelPlot::AccelPlot(QWidget* parent) : QChartView(parent) {
+  auto* chart = new QChart;
+  chart->setMargins(QMargins(4, 4, 8, 4));
+  chart->setBackgroundRoundness(0);
+  chart->legend()->setAlignment(Qt::AlignTop);
+
+  time_axis_ = new QValueAxis;
+  time_axis_->setTitleText(tr("Time since start (s)"));
+  time_axis_->setTickType(QValueAxis::TicksDynamic);
+  time_axis_->setTickAnchor(0.0);
+  value_axis_ = new QValueAxis;
+  value_axis_->setTitleText(tr("Acceleration (m/s\u00b2)"));
+  value_axis_->setLabelFormat(QStringLiteral("%.0f"));
+  value_axis_->setTickType(QValueAxis::TicksDynamic);
+  value_axis_->setTickAnchor(0.0);
+  chart->addAxis(time_axis_, Qt::AlignBottom);
+  chart->addAxis(value_axis_, Qt::AlignLeft);
+
+  // The usual axis colours: x red, y green, z blue.
+  const std::array<QColor, 3> colors = {QColor(214, 39, 40), QColor(44, 160, 44),
+                                        QColor(31, 119, 180)};
+  const std::array<QString, 3> names = {tr("a_x"), tr("a_y"), tr("a_z")};
+  for (size_t axis = 0; axis < 3; ++axis) {
+    series_[axis] = new QLineSeries;
+    series_[axis]->setName(names[axis]);
+    series_[axis]->setPen(QPen(colors[axis], 1.5));
+    chart->addSeries(series_[axis]);
+    series_[axis]->attachAxis(time_axis_);
+    series_[axis]->attachAxis(value_axis_);
+  }
+  cursor_ = new QLineSeries;
+  cursor_->setPen(QPen(QColor(20, 20, 20), 2.0));
+  chart->addSeries(cursor_);
+  cursor_->attachAxis(time_axis_);
+  cursor_->attachAxis(value_axis_);
+  for (auto* marker : chart->legend()->markers(cursor_)) marker->setVisible(false);
+
+  setChart(chart);
+  setRenderHint(QPainter::Antialiasing);
+  setMinimumHeight(160);
+  setCursor(Qt::CrossCursor);
+
+  redraw_timer_.setSingleShot(true);
+  redraw_timer_.setInterval(0);
+  connect(&redraw_timer_, &QTimer::timeout, this, &AccelPlot::redraw);
+  redraw();
+}
+
+void AccelPlot::setSamples(const std::vector<AccelSample>& samples, int64_t start_ns,
+                           double duration_s) {
+  t_.clear();
+  t_.reserve(samples.size());
+  for (auto& v : values_) {
+    v.clear();
+    v.reserve(samples.size());
+  }
+  for (const AccelSample& sample : samples) {
+    t_.push_back(static_cast<double>(sample.t_ns - start_ns) * 1e-9);
+    for (int axis = 0; axis < 3; ++axis) values_[axis].push_back(sample.specific_force[axis]);
+  }
+  duration_s_ = std::max(duration_s, t_.empty() ? 0.0 : t_.back());
+  cursor_s_ = 0.0;
+
+  // One value range for the whole recording, so the axis holds still during playback.
+  y_min_ = -1.0;
+  y_max_ = 1.0;
+  if (!t_.empty()) {
+    y_min_ = y_max_ = values_[0].front();
+    for (const auto& v : values_) {
+      const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+      y_min_ = std::min(y_min_, *lo);
+      y_max_ = std::max(y_max_, *hi);
+    }
+    const double pad = std::max(0.5, 0.05 * (y_max_ - y_min_));
+    y_min_ -= pad;
+    y_max_ += pad;
+  }
+  value_axis_->setRange(y_min_, y_max_);
+  value_axis_->setTickInterval(NiceTickInterval(y_max_ - y_min_, 6));
+  chart()->setTitle(t_.empty() ? tr("No accelerometer data in this recording") : QString());
+  redraw();
+}
+
+double AccelPlot::drawnCursorTime() const {
+  return cursor_->count() > 0 ? cursor_->at(0).x() : 0.0;
+}
+
+double AccelPlot::visibleStart() const { return time_axis_->min(); }
+
+double AccelPlot::visibleEnd() const { return time_axis_->max(); }
+
+void AccelPlot::setCursorTime(double seconds) {
+  cursor_s_ = seconds;
+  scheduleRedraw();
+}
+
+void AccelPlot::setWindowSeconds(double seconds) {
+  seconds = std::clamp(seconds, kMinWindowSeconds, kMaxWindowSeconds);
+  if (seconds == window_s_) return;
+  window_s_ = seconds;
+  scheduleRedraw();
+  emit windowSecondsChanged(window_s_);
+}
+
+void AccelPlot::mousePressEvent(QMouseEvent* event) {
+  if (event->button() == Qt::LeftButton) {
+    seekTo(event->pos());
+    event->accept();
+    return;
+  }
+  QChartView::mousePressEvent(event);
+}
+
+void AccelPlot::mouseMoveEvent(QMouseEvent* event) {
+  if (event->buttons() & Qt::LeftButton) {
+    seekTo(event->pos());
+    event->accept();
+    return;
+  }
+  QChartView::mouseMoveEvent(event);
+}
+
+void AccelPlot::wheelEvent(QWheelEvent* event) {
+  const int steps = event->angleDelta().y() / 120;
+  if (steps != 0) setWindowSeconds(window_s_ * std::pow(1.25, -steps));
+  event->accept();
+}
+
+void AccelPlot::resizeEvent(QResizeEvent* event) {
+  QChartView::resizeEvent(event);
+  scheduleRedraw();  // The number of pixel columns, hence the decimation, changed.
+}
+
+void AccelPlot::seekTo(const QPoint& pos) {
+  const QPointF in_chart = chart()->mapFromScene(mapToScene(pos));
+  const QRectF area = chart()->plotArea();
+  if (area.isEmpty()) return;
+  // Clicks left or right of the plot area go to the window's edges.
+  const double x = std::clamp(in_chart.x(), area.left(), area.right());
+  const double t = time_axis_->min() +
+                   (x - area.left()) / area.width() * (time_axis_->max() - time_axis_->min());
+  emit seekRequested(t);
+}
+
+void AccelPlot::scheduleRedraw() {
+  if (!redraw_timer_.isActive()) redraw_timer_.start();
+}
+
+void AccelPlot::redraw() {
+  // A window centred on the cursor, held inside the recording near its ends.
+  double t0 = cursor_s_ - window_s_ / 2.0;
+  if (duration_s_ > window_s_) {
+    t0 = std::clamp(t0, 0.0, duration_s_ - window_s_);
+  } else {
+    t0 = 0.0;
+  }
+  const double t1 = t0 + window_s_;
+  time_axis_->setRange(t0, t1);
+  const double tick = NiceTickInterval(window_s_, 10);
+  time_axis_->setTickInterval(tick);
+  const int decimals = std::max(0, -static_cast<int>(std::floor(std::log10(tick))));
+  time_axis_->setLabelFormat(QStringLiteral("%.%1f").arg(decimals));
+
+  const SampleRange range = VisibleRange(t_, t0, t1);
+  const int columns = std::max(1, static_cast<int>(chart()->plotArea().width()));
+  for (size_t axis = 0; axis < 3; ++axis) {
+    series_[axis]->replace(DecimateMinMax(t_, values_[axis], range, columns));
+  }
+  cursor_->replace(QVector<QPointF>{{cursor_s_, y_min_}, {cursor_s_, y_max_}});
+}
+
+}  // namespace autocal

@@ -1,0 +1,431 @@
+#include "widgets/main_window.h"
+
+#include <algorithm>
+#include <utility>
+#include <vector>
+
+#include <QAction>
+#include <QApplication>
+#include <QCloseEvent>
+#include <QComboBox>
+#include <QDateTime>
+#include <QDockWidget>
+#include <QDoubleSpinBox>
+#include <QDragEnterEvent>
+#include <QDropEvent>
+#include <QFileDialog>
+#include <QFileInfo>
+#include <QHBoxLayout>
+#include <QInputDialog>
+#include <QLabel>
+#include <QMenuBar>
+#include <QMessageBox>
+#include <QMimeData>
+#include <QPlainTextEdit>
+#include <QScreen>
+#include <QSettings>
+#include <QSignalBlocker>
+#include <QSlider>
+#include <QStatusBar>
+#include <QStyle>
+#include <QToolButton>
+#include <QUrl>
+#include <QVBoxLayout>
+
+#include "devices/sequence.h"
+#include "pipeline/version.h"
+#include "widgets/accel_plot.h"
+#include "widgets/frame_loader.h"
+#include "widgets/playback_controller.h"
+#include "widgets/sequence_opener.h"
+#include "widgets/video_view.h"
+
+namespace autocal {
+namespace {
+
+// QSettings keys.
+constexpr char kGeometryKey[] = "window/geometry";
+constexpr char kStateKey[] = "window/state";
+constexpr char kSpeedKey[] = "playback/speed";
+constexpr char kPlotWindowKey[] = "plot/window_seconds";
+constexpr char kLastPathKey[] = "files/last_path";
+// Bumped when the docks change, so an old saved layout is not applied to a new one.
+constexpr int kStateVersion = 1;
+
+constexpr double kSpeeds[] = {0.25, 0.5, 1.0, 2.0, 4.0};
+
+QString FormatSeconds(double seconds) { return QStringLiteral("%1 s").arg(seconds, 0, 'f', 3); }
+
+QToolButton* TransportButton(QAction* action) {
+  auto* button = new QToolButton;
+  button->setDefaultAction(action);
+  button->setAutoRaise(true);
+  button->setIconSize(QSize(24, 24));
+  // Keys belong to the window's shortcuts: a focused button would eat the space bar.
+  button->setFocusPolicy(Qt::NoFocus);
+  return button;
+}
+
+}  // namespace
+
+MainWindow::MainWindow(QWidget* parent)
+    : QMainWindow(parent),
+      playback_(new PlaybackController(this)),
+      loader_(new FrameLoader(this)),
+      opener_(new SequenceOpener(this)) {
+  setWindowTitle(tr("autocal workbench"));
+  setAcceptDrops(true);
+  createActions();
+  createCentralArea();
+  createDocks();
+  createStatusBar();
+  connectControllers();
+  restoreSettings();
+  video_->showMessage(tr("No recording open.\nFile \u203a Open Recording Folder\u2026"));
+  video_->setFocus();
+}
+
+MainWindow::~MainWindow() = default;
+
+void MainWindow::createActions() {
+  QMenu* file = menuBar()->addMenu(tr("&File"));
+  QAction* open_folder =
+      file->addAction(style()->standardIcon(QStyle::SP_DirOpenIcon),
+                      tr("Open Recording &Folder\u2026"), this, &MainWindow::openFolderDialog);
+  open_folder->setShortcut(QKeySequence::Open);
+  file->addAction(tr("Open &Video\u2026"), this, &MainWindow::openVideoDialog);
+  file->addAction(tr("Open &Simulation\u2026"), this, &MainWindow::openSimulationDialog);
+  file->addAction(tr("Open Simulated &Vest (%1)").arg(QString::fromLatin1(kDefaultSource)), this,
+                  [this] { open(QString::fromLatin1(kDefaultSource)); });
+  file->addSeparator();
+  QAction* quit = file->addAction(tr("&Quit"), this, &QWidget::close);
+  quit->setShortcut(QKeySequence::Quit);
+
+  QMenu* play = menuBar()->addMenu(tr("&Playback"));
+  play_action_ = play->addAction(style()->standardIcon(QStyle::SP_MediaPlay), tr("&Play"),
+                                 playback_, &PlaybackController::togglePlaying);
+  play_action_->setShortcut(Qt::Key_Space);
+  step_back_action_ =
+      play->addAction(style()->standardIcon(QStyle::SP_MediaSeekBackward),
+                      tr("Step &Back One Frame"), playback_, &PlaybackController::stepBackward);
+  step_back_action_->setShortcut(Qt::Key_Left);
+  step_forward_action_ =
+      play->addAction(style()->standardIcon(QStyle::SP_MediaSeekForward),
+                      tr("Step &Forward One Frame"), playback_, &PlaybackController::stepForward);
+  step_forward_action_->setShortcut(Qt::Key_Right);
+  start_action_ = play->addAction(style()->standardIcon(QStyle::SP_MediaSkipBackward),
+                                  tr("Go to &Start"), playback_, &PlaybackController::seekToStart);
+  start_action_->setShortcut(Qt::Key_Home);
+  end_action_ = play->addAction(style()->standardIcon(QStyle::SP_MediaSkipForward),
+                                tr("Go to &End"), playback_, &PlaybackController::seekToEnd);
+  end_action_->setShortcut(Qt::Key_End);
+  for (QAction* action :
+       {play_action_, step_back_action_, step_forward_action_, start_action_, end_action_}) {
+    action->setToolTip(QStringLiteral("%1 (%2)").arg(action->text().remove(QLatin1Char('&')),
+                                                     action->shortcut().toString()));
+  }
+}
+
+void MainWindow::createCentralArea() {
+  video_ = new VideoView;
+
+  slider_ = new QSlider(Qt::Horizontal);
+  slider_->setFocusPolicy(Qt::NoFocus);
+  slider_->setToolTip(tr("Drag to seek"));
+  position_label_ = new QLabel;
+  position_label_->setMinimumWidth(position_label_->fontMetrics().horizontalAdvance(
+      QStringLiteral("00000.000 s / 00000.000 s   frame 000000 / 000000")));
+
+  speed_box_ = new QComboBox;
+  speed_box_->setFocusPolicy(Qt::ClickFocus);
+  speed_box_->setToolTip(tr("Playback speed"));
+  for (double speed : kSpeeds) {
+    speed_box_->addItem(QStringLiteral("%1\u00d7").arg(speed), speed);
+  }
+  speed_box_->setCurrentIndex(speed_box_->findData(playback_->speed()));
+
+  window_box_ = new QDoubleSpinBox;
+  window_box_->setFocusPolicy(Qt::ClickFocus);
+  window_box_->setRange(AccelPlot::kMinWindowSeconds, AccelPlot::kMaxWindowSeconds);
+  window_box_->setDecimals(1);
+  window_box_->setSuffix(tr(" s"));
+  window_box_->setToolTip(
+      tr("Time span the accelerometer plot shows (mouse wheel on the plot zooms)"));
+
+  auto* transport = new QHBoxLayout;
+  transport->setContentsMargins(6, 2, 6, 2);
+  for (QAction* action :
+       {start_action_, step_back_action_, play_action_, step_forward_action_, end_action_}) {
+    transport->addWidget(TransportButton(action));
+  }
+  transport->addWidget(slider_, 1);
+  transport->addSpacing(8);
+  transport->addWidget(position_label_);
+  transport->addSpacing(12);
+  transport->addWidget(new QLabel(tr("Speed")));
+  transport->addWidget(speed_box_);
+  transport->addSpacing(12);
+  transport->addWidget(new QLabel(tr("Plot window")));
+  transport->addWidget(window_box_);
+
+  auto* central = new QWidget;
+  auto* layout = new QVBoxLayout(central);
+  layout->setContentsMargins(0, 0, 0, 0);
+  layout->setSpacing(0);
+  layout->addWidget(video_, 1);
+  layout->addLayout(transport);
+  setCentralWidget(central);
+}
+
+void MainWindow::createDocks() {
+  plot_ = new AccelPlot;
+  auto* plot_dock = new QDockWidget(tr("Accelerometer"), this);
+  plot_dock->setObjectName(QStringLiteral("accelerometer_dock"));
+  plot_dock->setWidget(plot_);
+  addDockWidget(Qt::BottomDockWidgetArea, plot_dock);
+
+  log_ = new QPlainTextEdit;
+  log_->setObjectName(QStringLiteral("log"));
+  log_->setReadOnly(true);
+  log_->setMaximumBlockCount(5000);
+  auto* log_dock = new QDockWidget(tr("Log"), this);
+  log_dock->setObjectName(QStringLiteral("log_dock"));
+  log_dock->setWidget(log_);
+  addDockWidget(Qt::BottomDockWidgetArea, log_dock);
+  tabifyDockWidget(plot_dock, log_dock);
+  plot_dock->raise();
+
+  QMenu* view = menuBar()->addMenu(tr("&View"));
+  view->addAction(plot_dock->toggleViewAction());
+  view->addAction(log_dock->toggleViewAction());
+
+  QMenu* help = menuBar()->addMenu(tr("&Help"));
+  help->addAction(tr("&About"), this, &MainWindow::showAbout);
+}
+
+void MainWindow::createStatusBar() {
+  status_source_ = new QLabel;
+  status_resolution_ = new QLabel;
+  status_fps_ = new QLabel;
+  status_position_ = new QLabel;
+  statusBar()->addWidget(status_source_, 1);
+  statusBar()->addPermanentWidget(status_resolution_);
+  statusBar()->addPermanentWidget(status_fps_);
+  statusBar()->addPermanentWidget(status_position_);
+}
+
+void MainWindow::connectControllers() {
+  connect(opener_, &SequenceOpener::opened, this, &MainWindow::onOpened);
+  connect(opener_, &SequenceOpener::failed, this, &MainWindow::onOpenFailed);
+
+  connect(playback_, &PlaybackController::frameChanged, loader_, &FrameLoader::request);
+  connect(playback_, &PlaybackController::frameChanged, this, &MainWindow::onFrameChanged);
+  connect(playback_, &PlaybackController::timeChanged, plot_, &AccelPlot::setCursorTime);
+  connect(playback_, &PlaybackController::playingChanged, this, &MainWindow::onPlayingChanged);
+  connect(playback_, &PlaybackController::speedChanged, this, [this](double speed) {
+    const QSignalBlocker blocker(speed_box_);
+    speed_box_->setCurrentIndex(speed_box_->findData(speed));
+    QSettings().setValue(kSpeedKey, speed);
+  });
+  connect(speed_box_, QOverload<int>::of(&QComboBox::currentIndexChanged), this,
+          [this](int index) { playback_->setSpeed(speed_box_->itemData(index).toDouble()); });
+
+  connect(loader_, &FrameLoader::frameReady, this, [this](int index, const QImage& image) {
+    video_->setFrame(index, image);
+    emit frameShown(index);
+  });
+  connect(loader_, &FrameLoader::frameFailed, this, [this](int index, const QString& message) {
+    log(tr("Frame %1 could not be read: %2").arg(index).arg(message), true);
+  });
+
+  connect(slider_, &QSlider::valueChanged, playback_, &PlaybackController::seekToIndex);
+  connect(plot_, &AccelPlot::seekRequested, playback_, &PlaybackController::seekToTime);
+  connect(plot_, &AccelPlot::windowSecondsChanged, this, [this](double seconds) {
+    const QSignalBlocker blocker(window_box_);
+    window_box_->setValue(seconds);
+    QSettings().setValue(kPlotWindowKey, seconds);
+  });
+  connect(window_box_, QOverload<double>::of(&QDoubleSpinBox::valueChanged), plot_,
+          &AccelPlot::setWindowSeconds);
+  // Hand the keys back to the window's shortcuts once a value is entered.
+  connect(window_box_, &QDoubleSpinBox::editingFinished, video_, [this] { video_->setFocus(); });
+  connect(speed_box_, QOverload<int>::of(&QComboBox::activated), video_,
+          [this] { video_->setFocus(); });
+}
+
+void MainWindow::restoreSettings() {
+  const QSettings settings;
+  playback_->setSpeed(settings.value(kSpeedKey, 1.0).toDouble());
+  plot_->setWindowSeconds(settings.value(kPlotWindowKey, 10.0).toDouble());
+  window_box_->setValue(plot_->windowSeconds());
+  last_path_ = settings.value(kLastPathKey).toString();
+  if (!restoreGeometry(settings.value(kGeometryKey).toByteArray())) {
+    const QRect screen = QGuiApplication::primaryScreen()->availableGeometry();
+    resize(screen.size() * 0.9);
+    move(screen.center() - rect().center());
+  }
+  restoreState(settings.value(kStateKey).toByteArray(), kStateVersion);
+}
+
+void MainWindow::open(const QString& source) {
+  log(tr("Opening %1 \u2026").arg(source));
+  statusBar()->showMessage(tr("Opening %1 \u2026").arg(source));
+  if (!sequence_) video_->showMessage(tr("Opening %1 \u2026").arg(source));
+  opener_->open(source);
+}
+
+void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence> sequence) {
+  sequence_ = std::move(sequence);
+  source_ = source;
+  if (!source.startsWith(QLatin1String("sim:"))) {
+    last_path_ = source;
+    QSettings().setValue(kLastPathKey, last_path_);
+  }
+
+  const Sequence& seq = *sequence_;
+  const size_t count = seq.frame_count();
+  std::vector<int64_t> times(count);
+  for (size_t i = 0; i < count; ++i) times[i] = seq.frame_time_ns(i);
+  const int64_t start_ns = RecordingStartNs(seq);
+  int64_t end_ns = count > 0 ? times.back() : start_ns;
+  if (!seq.accel().empty()) end_ns = std::max(end_ns, seq.accel().back().t_ns);
+  const double fps = count > 1 ? static_cast<double>(count - 1) * 1e9 /
+                                     static_cast<double>(times.back() - times.front())
+                               : 0.0;
+
+  const QString description = QString::fromStdString(seq.Describe());
+  setWindowTitle(tr("%1 \u2014 autocal workbench").arg(description));
+  status_source_->setText(description);
+  status_resolution_->setText(
+      tr("%1 \u00d7 %2 px").arg(seq.session().width).arg(seq.session().height));
+  status_fps_->setText(tr("%1 fps").arg(fps, 0, 'f', 2));
+  statusBar()->clearMessage();
+
+  loader_->setSequence(sequence_);
+  video_->showMessage(tr("Loading frame \u2026"));
+  plot_->setSamples(seq.accel(), start_ns, static_cast<double>(end_ns - start_ns) * 1e-9);
+  {
+    const QSignalBlocker blocker(slider_);
+    slider_->setRange(0, std::max(0, static_cast<int>(count) - 1));
+    slider_->setPageStep(std::max(1, static_cast<int>(fps)));
+  }
+  playback_->setTimeline(std::move(times), start_ns);
+
+  log(tr("Opened %1: %2 frames at %3 fps, %4 \u00d7 %5 px, %6 accelerometer samples")
+          .arg(description)
+          .arg(count)
+          .arg(fps, 0, 'f', 2)
+          .arg(seq.session().width)
+          .arg(seq.session().height)
+          .arg(seq.accel().size()));
+  for (const std::string& warning : seq.warnings()) {
+    log(tr("Warning: %1").arg(QString::fromStdString(warning)), true);
+  }
+  if (count == 0) video_->showMessage(tr("%1 has no frames.").arg(description));
+  emit opened(source);
+  playback_->play();
+}
+
+void MainWindow::onOpenFailed(const QString& source, const QString& message) {
+  log(tr("Could not open %1: %2").arg(source, message), true);
+  statusBar()->showMessage(tr("Could not open %1 (see the log)").arg(source), 15000);
+  if (!sequence_) {
+    video_->showMessage(tr("No recording open.\nFile \u203a Open Recording Folder\u2026"));
+  }
+  // Not exec(): a modal loop here would stall playback and whoever called open().
+  auto* box = new QMessageBox(QMessageBox::Critical, tr("Could not open recording"),
+                              tr("Could not open %1").arg(source), QMessageBox::Ok, this);
+  box->setInformativeText(message);
+  box->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  box->setAttribute(Qt::WA_DeleteOnClose);
+  box->open();
+  emit openFailed(source, message);
+}
+
+void MainWindow::onFrameChanged(int index) {
+  const int count = playback_->frameCount();
+  if (!slider_->isSliderDown()) {
+    const QSignalBlocker blocker(slider_);
+    slider_->setValue(index);
+  }
+  const double duration = playback_->frameTime(count - 1);
+  const QString time = QStringLiteral("%1 / %2").arg(FormatSeconds(playback_->currentTime()),
+                                                     FormatSeconds(duration));
+  const QString frame = tr("frame %1 / %2").arg(count > 0 ? index + 1 : 0).arg(count);
+  position_label_->setText(QStringLiteral("%1   %2").arg(time, frame));
+  status_position_->setText(
+      QStringLiteral("%1  %2").arg(frame, FormatSeconds(playback_->currentTime())));
+}
+
+void MainWindow::onPlayingChanged(bool playing) {
+  play_action_->setIcon(
+      style()->standardIcon(playing ? QStyle::SP_MediaPause : QStyle::SP_MediaPlay));
+  play_action_->setText(playing ? tr("&Pause") : tr("&Play"));
+  play_action_->setToolTip(playing ? tr("Pause (Space)") : tr("Play (Space)"));
+}
+
+void MainWindow::openFolderDialog() {
+  const QString dir =
+      QFileDialog::getExistingDirectory(this, tr("Open Recording Folder"), dialogStartDir());
+  if (!dir.isEmpty()) open(dir);
+}
+
+void MainWindow::openVideoDialog() {
+  const QString file =
+      QFileDialog::getOpenFileName(this, tr("Open Video"), dialogStartDir(),
+                                   tr("Videos (*.mp4 *.avi *.mkv *.mov *.webm);;All files (*)"));
+  if (!file.isEmpty()) open(file);
+}
+
+void MainWindow::openSimulationDialog() {
+  bool ok = false;
+  const QString spec = QInputDialog::getText(
+      this, tr("Open Simulation"),
+      tr("Scenario and settings, e.g. office,lens=sonnar,seconds=20,resolution=640x480"),
+      QLineEdit::Normal, QStringLiteral("office"), &ok);
+  if (ok && !spec.trimmed().isEmpty()) open(QStringLiteral("sim:") + spec.trimmed());
+}
+
+void MainWindow::showAbout() {
+  QMessageBox::about(this, tr("About autocal workbench"),
+                     tr("<b>autocal workbench</b> %1<p>Keeps a camera and accelerometer rig "
+                        "calibrated while it is in use.</p>")
+                         .arg(QString::fromLatin1(kVersion)));
+}
+
+void MainWindow::log(const QString& message, bool is_error) {
+  const QString time = QDateTime::currentDateTime().toString(QStringLiteral("HH:mm:ss"));
+  const QString html = message.toHtmlEscaped().replace(QLatin1Char('\n'), QLatin1String("<br>"));
+  log_->appendHtml(
+      is_error ? QStringLiteral("<span style=\"color:#b00020\">%1 %2</span>").arg(time, html)
+               : QStringLiteral("%1 %2").arg(time, html));
+  if (is_error) {
+    qWarning("%s", qUtf8Printable(message));
+  } else {
+    qInfo("%s", qUtf8Printable(message));
+  }
+}
+
+QString MainWindow::dialogStartDir() const {
+  return last_path_.isEmpty() ? QString() : QFileInfo(last_path_).absolutePath();
+}
+
+void MainWindow::closeEvent(QCloseEvent* event) {
+  QSettings settings;
+  settings.setValue(kGeometryKey, saveGeometry());
+  settings.setValue(kStateKey, saveState(kStateVersion));
+  playback_->pause();
+  QMainWindow::closeEvent(event);
+}
+
+void MainWindow::dragEnterEvent(QDragEnterEvent* event) {
+  const QList<QUrl> urls = event->mimeData()->urls();
+  if (urls.size() == 1 && urls.front().isLocalFile()) event->acceptProposedAction();
+}
+
+void MainWindow::dropEvent(QDropEvent* event) {
+  open(event->mimeData()->urls().front().toLocalFile());
+  event->acceptProposedAction();
+}
+
+}  // namespace autocal

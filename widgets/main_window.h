@@ -1,0 +1,106 @@
+// The workbench window: opens a recording and binds the views to one playback cursor.
+// It wires and draws; opening, decoding and timing live in the non-widget controllers.
+#pragma once
+
+#include <memory>
+
+#include <QMainWindow>
+#include <QString>
+
+class QAction;
+class QComboBox;
+class QDoubleSpinBox;
+class QLabel;
+class QPlainTextEdit;
+class QSlider;
+class QToolButton;
+
+namespace autocal {
+
+class AccelPlot;
+class FrameLoader;
+class PlaybackController;
+class Sequence;
+class SequenceOpener;
+class VideoView;
+
+class MainWindow : public QMainWindow {
+  Q_OBJECT
+
+ public:
+  // What the workbench opens when it is given nothing: the built-in simulated vest.
+  static constexpr const char* kDefaultSource = "sim:office";
+
+  explicit MainWindow(QWidget* parent = nullptr);
+  ~MainWindow() override;
+
+  PlaybackController* playback() const { return playback_; }
+  VideoView* videoView() const { return video_; }
+  AccelPlot* accelPlot() const { return plot_; }
+  // The open recording (null until one opened) and what it was opened from.
+  const Sequence* sequence() const { return sequence_.get(); }
+  const QString& source() const { return source_; }
+
+ public slots:
+  // Opens a folder, a video or "sim:SPEC" in the background, then plays it. On failure
+  // the error is shown and logged, and the recording open before stays.
+  void open(const QString& source);
+
+ signals:
+  void opened(const QString& source);
+  void openFailed(const QString& source, const QString& message);
+  // A decoded frame reached the screen.
+  void frameShown(int index);
+
+ protected:
+  void closeEvent(QCloseEvent* event) override;
+  void dragEnterEvent(QDragEnterEvent* event) override;
+  void dropEvent(QDropEvent* event) override;
+
+ private:
+  void createActions();
+  void createCentralArea();
+  void createDocks();
+  void createStatusBar();
+  void connectControllers();
+  void restoreSettings();
+
+  void onOpened(const QString& source, std::shared_ptr<const Sequence> sequence);
+  void onOpenFailed(const QString& source, const QString& message);
+  void onFrameChanged(int index);
+  void onPlayingChanged(bool playing);
+  void openFolderDialog();
+  void openVideoDialog();
+  void openSimulationDialog();
+  void showAbout();
+  // The one logging path: the log dock and stderr.
+  void log(const QString& message, bool is_error = false);
+  QString dialogStartDir() const;
+
+  PlaybackController* playback_;
+  FrameLoader* loader_;
+  SequenceOpener* opener_;
+  std::shared_ptr<const Sequence> sequence_;
+  QString source_;
+  QString last_path_;
+
+  VideoView* video_ = nullptr;
+  AccelPlot* plot_ = nullptr;
+  QPlainTextEdit* log_ = nullptr;
+  QSlider* slider_ = nullptr;
+  QLabel* position_label_ = nullptr;
+  QComboBox* speed_box_ = nullptr;
+  QDoubleSpinBox* window_box_ = nullptr;
+  QLabel* status_source_ = nullptr;
+  QLabel* status_resolution_ = nullptr;
+  QLabel* status_fps_ = nullptr;
+  QLabel* status_position_ = nullptr;
+
+  QAction* play_action_ = nullptr;
+  QAction* step_back_action_ = nullptr;
+  QAction* step_forward_action_ = nullptr;
+  QAction* start_action_ = nullptr;
+  QAction* end_action_ = nullptr;
+};
+
+}  // namespace autocal
