@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -29,11 +30,24 @@ class RecordingWriter {
   // Writes a file below ground_truth/ (e.g. the scene description).
   void AddGroundTruthFile(const std::string& name, const std::string& contents);
 
+  // AddFrame and AddGroundTruth in two steps, for writers that encode several frames at
+  // once: the Write* calls are safe from several threads at once, and the Append* calls
+  // then add the rows, in time order, for images already written.
+  void WriteFrameImage(int64_t t_ns, const cv::Mat& image) const;
+  void WritePlaneLabels(int64_t t_ns, const cv::Mat& plane_labels) const;
+  void AppendFrameRow(int64_t t_ns);
+  void AppendGroundTruthRows(const GroundTruthFrame& truth);
+
   const std::string& dir() const { return dir_; }
 
  private:
+  // Creates ground_truth/ and its CSV files with their headers, once.
+  void OpenGroundTruth();
+
   std::string dir_;
   std::ofstream frames_csv_, accel_csv_, intrinsics_csv_, poses_csv_;
+  // Last timestamps written, to refuse rows a reader would reject.
+  std::optional<int64_t> last_frame_ns_, last_accel_ns_, last_truth_ns_;
 };
 
 // Reports progress (frames done, frames in all); returning false cancels.

@@ -75,6 +75,9 @@ class Sequence {
   virtual const std::vector<GroundTruthFrame>* ground_truth() const { return nullptr; }
   // Id of the scene plane each pixel sees (CV_16U, 0 = none), where the source has it.
   virtual std::optional<cv::Mat> LoadPlaneLabels(size_t /*index*/) const { return std::nullopt; }
+  // The scene description (YAML, ground_truth/scene.yaml in a recording), where the source
+  // has one, so that copying a sequence keeps it.
+  virtual std::optional<std::string> SceneDescription() const { return std::nullopt; }
 };
 
 // Opens a native recording, a EuRoC folder (mav0/ or its parent), a TUM RGB-D folder,
