@@ -67,8 +67,9 @@ double Gradients::Directional(const Eigen::Vector2d& p, const Eigen::Vector2d& d
 bool LocateEdgeAlongNormal(const Gradients& gradients, const Eigen::Vector2d& point,
                            const Eigen::Vector2d& normal, double search_px, double min_strength,
                            Eigen::Vector2d* edge, int polarity) {
-  // Sample the edge strength every half pixel.
-  constexpr double kStep = 0.5;
+  // Sample the edge strength every pixel: finer steps only interpolate the same pixels,
+  // which flattens the peak and biases the parabola toward the sample grid.
+  constexpr double kStep = 1.0;
   const int n = static_cast<int>(std::ceil(search_px / kStep));
   double best = 0.0;
   int best_k = 0;
