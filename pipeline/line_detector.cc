@@ -168,8 +168,11 @@ std::vector<EdgePoint> CollectEdgePoints(const cv::Mat& edges, const cv::Mat& cl
 }  // namespace
 
 std::vector<LineSegment> DetectLines(const cv::Mat& gray, const LineDetectorOptions& options) {
-  CV_Assert(gray.type() == CV_8UC1);
-  const Gradients gradients(gray, 1.0);
+  return DetectLines(Gradients(gray, 1.0), options);
+}
+
+std::vector<LineSegment> DetectLines(const Gradients& gradients,
+                                     const LineDetectorOptions& options) {
   cv::Mat edges;
   cv::Canny(gradients.smoothed(), edges, options.canny_low, options.canny_high, 3, true);
 

@@ -42,8 +42,13 @@ struct LineSegment {
   double Distance(const Eigen::Vector2d& p) const;
 };
 
+class Gradients;
+
 // Finds straight segments in an 8-bit single-channel image.
 std::vector<LineSegment> DetectLines(const cv::Mat& gray, const LineDetectorOptions& options);
+// The same, on gradients already computed (with sigma 1) for other boxes.
+std::vector<LineSegment> DetectLines(const Gradients& gradients,
+                                     const LineDetectorOptions& options);
 
 // Image gradients (CV_32F) of a smoothed image, sampled with bilinear interpolation.
 class Gradients {

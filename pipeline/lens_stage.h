@@ -1,0 +1,82 @@
+// Boxes 1-3 as one per-frame stage: lines, snakes, the distortion estimated from the
+// snakes gathered over time, and the rectified geometry image for boxes 4-10.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "pipeline/camera_model.h"
+#include "pipeline/line_detector.h"
+#include "pipeline/plumb_line.h"
+#include "pipeline/radon_snake.h"
+#include "pipeline/rectifier.h"
+
+namespace autocal {
+
+struct LensOptions {
+  LineDetectorOptions lines;
+  SnakeOptions snakes;
+  PlumbLineOptions plumb_line;
+  RectifyOptions rectify;
+  int observe_every_frames = 3;           // A snake's shape joins the pool this often...
+  double min_observation_shift_px = 4.0;  // ...if it moved this much since its last one.
+  int pool_size = 400;                    // Shapes kept; the oldest go first.
+  int estimate_every_frames = 30;         // Distortion re-estimated this often (frames).
+
+  // Checks this struct and every nested one; the message names the field.
+  bool Check(std::string* error) const;
+};
+
+// What boxes 1-3 found in one frame: immutable, for the overlays and the summary.
+struct LensSnapshot {
+  int64_t t_ns = 0;
+  std::vector<LineSegment> lines;
+  std::vector<RadonSnake> snakes;
+  // The newest distortion estimate, if one was made on or before this frame.
+  std::optional<PlumbLineResult> distortion;
+  int pooled_shapes = 0;     // Snake shapes the estimate draws on.
+  double lines_ms = 0.0;     // Box 1 (lines and snakes).
+  double distortion_ms = 0.0;  // Box 2 (0 on frames without an estimate).
+  double rectify_ms = 0.0;   // Box 3.
+};
+
+class LensStage {
+ public:
+  explicit LensStage(const LensOptions& options = {});
+
+  // Runs boxes 1-3 on a raw frame (8-bit BGR or grey). Lines and snakes are found in the
+  // raw image, whose distortion they measure; `calibration` gives the principal point
+  // near which snakes are seeded and the undistortion of `rectified` (if not null).
+  LensSnapshot Process(int64_t t_ns, const cv::Mat& raw, const CameraIntrinsics& calibration,
+                       cv::Mat* rectified = nullptr);
+
+  // Estimates the distortion from every snake shape pooled so far, now.
+  PlumbLineResult EstimateNow(const CameraIntrinsics& initial) const;
+
+  // For still images: seeds snakes from the lines of one image and lets them grow along
+  // its curved edges, then pools their shapes. Snakes do not carry over between images.
+  LensSnapshot ProcessStill(const cv::Mat& raw, const CameraIntrinsics& calibration);
+
+  void set_options(const LensOptions& options);
+  const LensOptions& options() const { return options_; }
+  size_t pooled_shapes() const { return pool_.size(); }
+
+ private:
+  void Pool(const RadonSnake& snake);
+
+  LensOptions options_;
+  Rectifier rectifier_;
+  SnakeTracker tracker_;
+  std::deque<LineObservation> pool_;
+  // Where each snake's last pooled shape was (by snake id), to pool only new views.
+  std::vector<std::pair<int, Eigen::Vector2d>> last_pooled_;
+  std::optional<PlumbLineResult> latest_;
+  int64_t frames_ = 0;
+};
+
+}  // namespace autocal
