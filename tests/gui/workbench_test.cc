@@ -1,0 +1,467 @@
+// The workbench in a real window (run under Xvfb): playback, seeking, stepping, the plot's
+// cursor, what the video view shows, error reporting and settings.
+#include <cmath>
+#include <memory>
+#include <set>
+#include <vector>
+
+#include <QComboBox>
+#include <QDoubleSpinBox>
+#include <QElapsedTimer>
+#include <QImage>
+#include <QMessageBox>
+#include <QPlainTextEdit>
+#include <QSettings>
+#include <QSignalSpy>
+#include <QSlider>
+#include <QTemporaryDir>
+#include <QtTest>
+#include <opencv2/core.hpp>
+
+#include "devices/recording_writer.h"
+#include "devices/sequence.h"
+#include "widgets/accel_plot.h"
+#include "widgets/image_convert.h"
+#include "widgets/main_window.h"
+#include "widgets/playback_controller.h"
+#include "widgets/plot_decimation.h"
+#include "widgets/video_view.h"
+
+namespace autocal {
+namespace {
+
+const QString kSimSource = QStringLiteral("sim:office,seconds=3,resolution=320x240");
+// Simulated frames can take a while on a loaded machine.
+constexpr int kOpenTimeoutMs = 60000;
+constexpr int kFrameTimeoutMs = 20000;
+
+// Mean absolute difference (grey levels, over channels) between what `view` shows and the
+// BGR `frame`, sampled at pixel centres of the frame mapped into the view. With
+// `swap_red_blue` the frame's red and blue are exchanged first.
+double ShownDifference(VideoView& view, const cv::Mat& frame, bool swap_red_blue = false) {
+  const QImage shown = view.grab().toImage().convertToFormat(QImage::Format_RGB32);
+  const QTransform to_view = view.imageToWidget();
+  double sum = 0.0;
+  int count = 0;
+  for (int v = 6; v < frame.rows - 6; v += 9) {
+    for (int u = 6; u < frame.cols - 6; u += 9) {
+      const QPointF p = to_view.map(QPointF(u, v));
+      const QRgb got = shown.pixel(static_cast<int>(p.x()), static_cast<int>(p.y()));
+      const cv::Vec3b bgr = frame.at<cv::Vec3b>(v, u);
+      const int red = swap_red_blue ? bgr[0] : bgr[2];
+      const int blue = swap_red_blue ? bgr[2] : bgr[0];
+      sum +=
+          std::abs(qRed(got) - red) + std::abs(qGreen(got) - bgr[1]) + std::abs(qBlue(got) - blue);
+      count += 3;
+    }
+  }
+  return count > 0 ? sum / count : 1e9;
+}
+
+// The frame nearest to `seconds` after the recording's start, found independently of
+// the controller.
+int NearestFrame(const Sequence& sequence, double seconds) {
+  const double t = static_cast<double>(RecordingStartNs(sequence)) + seconds * 1e9;
+  int best = 0;
+  for (size_t i = 0; i < sequence.frame_count(); ++i) {
+    if (std::abs(static_cast<double>(sequence.frame_time_ns(i)) - t) <
+        std::abs(static_cast<double>(sequence.frame_time_ns(best)) - t)) {
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+// ExpectShown, and stop the test at its first failure.
+#define EXPECT_SHOWN(window, index)   \
+  do {                                \
+    ExpectShown(window, index);       \
+    if (QTest::currentTestFailed()) { \
+      return;                         \
+    }                                 \
+  } while (false)
+
+class WorkbenchTest : public QObject {
+  Q_OBJECT
+
+ private slots:
+  void initTestCase();
+  void convertsBgrFramesWithPaddedRows();
+  void decimationKeepsPeaks();
+  void controllerPacesByTimestamps();
+  void playsSeeksAndSteps();
+  void opensRecordingFolder();
+  void badPathKeepsRecordingOpen();
+  void settingsPersist();
+  void screenshotIsNotBlank();
+
+ private:
+  // A shown main window with `source` open and its first frame on screen.
+  std::unique_ptr<MainWindow> OpenWindow(const QString& source);
+  // Waits until `window` shows frame `index`, then checks its pixels against the frame.
+  void ExpectShown(const MainWindow& window, int index);
+
+  QTemporaryDir settings_dir_;
+};
+
+void WorkbenchTest::initTestCase() {
+  // Settings go to a temporary folder, never to the user's.
+  QVERIFY(settings_dir_.isValid());
+  QSettings::setDefaultFormat(QSettings::IniFormat);
+  QSettings::setPath(QSettings::IniFormat, QSettings::UserScope, settings_dir_.path());
+  QCoreApplication::setOrganizationName(QStringLiteral("autocal-test"));
+  QCoreApplication::setApplicationName(QStringLiteral("workbench_test"));
+  QSettings().clear();
+}
+
+std::unique_ptr<MainWindow> WorkbenchTest::OpenWindow(const QString& source) {
+  auto window = std::make_unique<MainWindow>();
+  window->resize(1200, 800);
+  window->show();
+  window->activateWindow();  // Shortcuts only reach the active window.
+  if (!QTest::qWaitForWindowActive(window.get())) return nullptr;
+  QSignalSpy opened(window.get(), &MainWindow::opened);
+  window->open(source);
+  if (!opened.wait(kOpenTimeoutMs) || window->sequence() == nullptr) return nullptr;
+  if (!QTest::qWaitFor([&] { return window->videoView()->frameIndex() >= 0; }, kFrameTimeoutMs)) {
+    return nullptr;
+  }
+  return window;
+}
+
+void WorkbenchTest::ExpectShown(const MainWindow& window, int index) {
+  QTRY_COMPARE_WITH_TIMEOUT(window.videoView()->frameIndex(), index, kFrameTimeoutMs);
+  const Sequence& sequence = *window.sequence();
+  const cv::Mat expected = sequence.LoadFrame(static_cast<size_t>(index));
+  QCOMPARE(window.videoView()->image().size(), QSize(expected.cols, expected.rows));
+  const double right = ShownDifference(*window.videoView(), expected);
+  // The comparison must be able to tell: another frame and swapped colours differ more.
+  const int other_index = (index + static_cast<int>(sequence.frame_count()) / 2) %
+                          static_cast<int>(sequence.frame_count());
+  const double other =
+      ShownDifference(*window.videoView(), sequence.LoadFrame(static_cast<size_t>(other_index)));
+  const double swapped = ShownDifference(*window.videoView(), expected, true);
+  qInfo("frame %d: difference %.2f, to frame %d %.2f, with red/blue swapped %.2f", index, right,
+        other_index, other, swapped);
+  QVERIFY2(right < 6.0, qPrintable(QStringLiteral("shown frame differs by %1").arg(right)));
+  QVERIFY(other > right + 6.0);
+  QVERIFY(swapped > right + 2.0);
+}
+
+void WorkbenchTest::convertsBgrFramesWithPaddedRows() {
+  // 5 pixels of 3 bytes: QImage pads each row to 16 bytes, cv::Mat does not.
+  cv::Mat bgr(3, 5, CV_8UC3);
+  for (int y = 0; y < 3; ++y) {
+    for (int x = 0; x < 5; ++x) bgr.at<cv::Vec3b>(y, x) = cv::Vec3b(x * 50, y * 100, 7);
+  }
+  const QImage image = MatToQImage(bgr);
+  bgr.setTo(cv::Scalar::all(0));  // The QImage must own a copy.
+  QCOMPARE(image.size(), QSize(5, 3));
+  QCOMPARE(image.format(), QImage::Format_RGB888);
+  for (int y = 0; y < 3; ++y) {
+    for (int x = 0; x < 5; ++x) {
+      QCOMPARE(image.pixel(x, y), qRgb(7, y * 100, x * 50));
+    }
+  }
+
+  cv::Mat grey(2, 3, CV_8UC1);
+  for (int i = 0; i < 6; ++i) grey.data[i] = static_cast<uchar>(i * 40);
+  const QImage grey_image = MatToQImage(grey);
+  QCOMPARE(grey_image.pixel(2, 1), qRgb(200, 200, 200));
+
+  const cv::Mat bgra(1, 1, CV_8UC4, cv::Scalar(10, 20, 30, 255));
+  QCOMPARE(MatToQImage(bgra).pixel(0, 0), qRgba(30, 20, 10, 255));
+
+  QVERIFY(MatToQImage(cv::Mat()).isNull());
+  QVERIFY(MatToQImage(cv::Mat(2, 2, CV_32FC1)).isNull());
+}
+
+void WorkbenchTest::decimationKeepsPeaks() {
+  std::vector<double> t(100000), v(100000);
+  for (size_t i = 0; i < t.size(); ++i) {
+    t[i] = static_cast<double>(i) * 1e-3;
+    v[i] = std::sin(t[i]);
+  }
+  v[54321] = 50.0;
+  v[77777] = -40.0;
+
+  const SampleRange range = VisibleRange(t, 10.0, 90.0);
+  QCOMPARE(range.begin, size_t{9999});  // One sample before the window.
+  QCOMPARE(range.end, size_t{90002});   // One after.
+
+  const QVector<QPointF> points = DecimateMinMax(t, v, range, 400);
+  QVERIFY(points.size() <= 800);
+  QVERIFY(points.size() >= 400);
+  double lo = 0.0, hi = 0.0;
+  for (int i = 0; i < points.size(); ++i) {
+    if (i > 0) QVERIFY(points[i].x() > points[i - 1].x());
+    lo = std::min(lo, points[i].y());
+    hi = std::max(hi, points[i].y());
+  }
+  QCOMPARE(hi, 50.0);
+  QCOMPARE(lo, -40.0);
+  QCOMPARE(points.front().x(), t[range.begin]);
+  QCOMPARE(points.back().x(), t[range.end - 1]);
+
+  // Few samples: all of them.
+  QCOMPARE(DecimateMinMax(t, v, {0, 10}, 400).size(), 10);
+}
+
+void WorkbenchTest::controllerPacesByTimestamps() {
+  constexpr int kFrames = 200;
+  constexpr int64_t kStart = 5'000'000'000;
+  constexpr int64_t kStep = 20'000'000;  // 50 Hz.
+  std::vector<int64_t> times(kFrames);
+  for (int i = 0; i < kFrames; ++i) times[static_cast<size_t>(i)] = kStart + i * kStep;
+
+  PlaybackController playback;
+  QSignalSpy frames(&playback, &PlaybackController::frameChanged);
+  QSignalSpy seconds(&playback, &PlaybackController::timeChanged);
+  playback.setTimeline(times, kStart - 100'000'000);  // Accelerometer starts 0.1 s earlier.
+  QCOMPARE(playback.frameIndex(), 0);
+  QCOMPARE(frames.count(), 1);
+  QCOMPARE(seconds.takeLast().at(0).toDouble(), 0.1);
+
+  QCOMPARE(playback.frameAtTime(0.1 + 0.509), 25);
+  QCOMPARE(playback.frameAtTime(0.1 + 0.511), 26);
+  QCOMPARE(playback.frameAtTime(-3.0), 0);
+  QCOMPARE(playback.frameAtTime(1000.0), kFrames - 1);
+
+  playback.setSpeed(10.0);
+  QCOMPARE(playback.speed(), PlaybackController::kMaxSpeed);
+  playback.setSpeed(2.0);
+
+  QElapsedTimer clock;
+  clock.start();
+  playback.play();
+  QVERIFY(playback.isPlaying());
+  QTest::qWait(500);
+  const int index = playback.frameIndex();
+  const double elapsed_s = static_cast<double>(clock.nsecsElapsed()) * 1e-9;
+  // Real time at double speed is 100 frames per second: never ahead of the clock, and
+  // not far behind it either (timer latency on a loaded machine).
+  qInfo("after %.3f s at 2x: frame %d", elapsed_s, index);
+  QVERIFY(index <= static_cast<int>(elapsed_s * 100.0) + 1);
+  QVERIFY(index >= static_cast<int>(0.5 * 100.0 * 0.5));
+  QCOMPARE(seconds.last().at(0).toDouble(), playback.frameTime(index));
+  QCOMPARE(playback.frameTime(index), 0.1 + index * 0.02);
+
+  playback.pause();
+  const int paused_at = playback.frameIndex();
+  QTest::qWait(200);
+  QCOMPARE(playback.frameIndex(), paused_at);
+
+  playback.seekToIndex(kFrames - 3);
+  QCOMPARE(playback.frameIndex(), kFrames - 3);
+  playback.stepForward();
+  playback.stepForward();
+  playback.stepForward();  // Stays on the last frame.
+  QCOMPARE(playback.frameIndex(), kFrames - 1);
+  playback.seekToStart();
+  playback.stepBackward();
+  QCOMPARE(playback.frameIndex(), 0);
+
+  // Playing stops at the end; playing again starts over.
+  QSignalSpy playing(&playback, &PlaybackController::playingChanged);
+  playback.seekToIndex(kFrames - 5);
+  playback.play();
+  QTRY_VERIFY(!playback.isPlaying());
+  QCOMPARE(playback.frameIndex(), kFrames - 1);
+  QCOMPARE(playing.count(), 2);
+  playback.play();
+  QVERIFY(playback.frameIndex() < 5);
+  playback.pause();
+}
+
+void WorkbenchTest::playsSeeksAndSteps() {
+  const auto window = OpenWindow(kSimSource);
+  QVERIFY(window);
+  PlaybackController& playback = *window->playback();
+  AccelPlot& plot = *window->accelPlot();
+  const Sequence& sequence = *window->sequence();
+  QCOMPARE(playback.frameCount(), static_cast<int>(sequence.frame_count()));
+  QVERIFY(sequence.frame_count() >= 60);
+
+  // Opening plays: the frame index, the shown frame and the plot's cursor all advance.
+  QVERIFY(playback.isPlaying());
+  QTRY_VERIFY_WITH_TIMEOUT(window->videoView()->frameIndex() >= 10, kFrameTimeoutMs);
+  QTRY_VERIFY(plot.drawnCursorTime() > 0.3);
+
+  QTest::keyClick(window.get(), Qt::Key_Space);
+  QVERIFY(!playback.isPlaying());
+  const int paused_at = playback.frameIndex();
+  QTest::qWait(300);
+  QCOMPARE(playback.frameIndex(), paused_at);
+  QTRY_COMPARE(plot.drawnCursorTime(), playback.currentTime());
+  QVERIFY(plot.visibleStart() <= plot.drawnCursorTime());
+  QVERIFY(plot.visibleEnd() >= plot.drawnCursorTime());
+  EXPECT_SHOWN(*window, paused_at);
+
+  // Seek to a time: the nearest frame, on screen and under the cursor.
+  playback.seekToTime(1.5);
+  const int at_1_5 = NearestFrame(sequence, 1.5);
+  QCOMPARE(playback.frameIndex(), at_1_5);
+  EXPECT_SHOWN(*window, at_1_5);
+  QTRY_COMPARE(plot.drawnCursorTime(), playback.frameTime(at_1_5));
+
+  // Keyboard: right, left, home, end.
+  QTest::keyClick(window.get(), Qt::Key_Right);
+  QTest::keyClick(window.get(), Qt::Key_Right);
+  QCOMPARE(playback.frameIndex(), at_1_5 + 2);
+  QTest::keyClick(window.get(), Qt::Key_Left);
+  QCOMPARE(playback.frameIndex(), at_1_5 + 1);
+  EXPECT_SHOWN(*window, at_1_5 + 1);
+  QTest::keyClick(window.get(), Qt::Key_End);
+  QCOMPARE(playback.frameIndex(), playback.frameCount() - 1);
+  QTest::keyClick(window.get(), Qt::Key_Home);
+  QCOMPARE(playback.frameIndex(), 0);
+  EXPECT_SHOWN(*window, 0);
+
+  // The timeline slider seeks.
+  auto* slider = window->findChild<QSlider*>();
+  QVERIFY(slider);
+  QCOMPARE(slider->maximum(), playback.frameCount() - 1);
+  slider->setValue(40);
+  QCOMPARE(playback.frameIndex(), 40);
+  EXPECT_SHOWN(*window, 40);
+
+  // A click on the plot seeks to the time under the mouse.
+  QTRY_COMPARE(plot.drawnCursorTime(), playback.frameTime(40));
+  const double click_s = playback.frameTime(40) + 0.8;
+  QVERIFY(click_s < plot.visibleEnd());
+  QChart& chart = *plot.chart();
+  const QPointF in_chart = chart.mapToPosition(QPointF(click_s, 0.0), chart.series().front());
+  const QPoint in_view = plot.mapFromScene(chart.mapToScene(in_chart));
+  QTest::mouseClick(plot.viewport(), Qt::LeftButton, Qt::NoModifier, in_view);
+  const int clicked = NearestFrame(sequence, click_s);
+  QVERIFY(std::abs(playback.frameIndex() - clicked) <= 1);  // Within a pixel's time.
+  EXPECT_SHOWN(*window, playback.frameIndex());
+  QTRY_VERIFY(std::abs(plot.drawnCursorTime() - click_s) < 0.05);
+}
+
+void WorkbenchTest::opensRecordingFolder() {
+  QTemporaryDir dir;
+  QVERIFY(dir.isValid());
+  const QString folder = dir.filePath(QStringLiteral("recording"));
+  const auto simulated = OpenSequence(kSimSource.toStdString());
+  QVERIFY(WriteSequence(*simulated, folder.toStdString()));
+
+  const auto window = OpenWindow(folder);
+  QVERIFY(window);
+  QCOMPARE(window->source(), folder);
+  QCOMPARE(window->sequence()->frame_count(), simulated->frame_count());
+  QVERIFY(window->windowTitle().contains(QString::fromStdString(window->sequence()->Describe())));
+  QTest::keyClick(window.get(), Qt::Key_Space);  // Pause.
+  window->playback()->seekToTime(2.0);
+  const int index = NearestFrame(*window->sequence(), 2.0);
+  EXPECT_SHOWN(*window, index);
+  // The recording holds exactly what the simulator rendered (lossless PNG).
+  QCOMPARE(ShownDifference(*window->videoView(), simulated->LoadFrame(static_cast<size_t>(index))),
+           ShownDifference(*window->videoView(),
+                           window->sequence()->LoadFrame(static_cast<size_t>(index))));
+}
+
+void WorkbenchTest::badPathKeepsRecordingOpen() {
+  const auto window = OpenWindow(kSimSource);
+  QVERIFY(window);
+  const Sequence* before = window->sequence();
+  const int frames_before = window->playback()->frameCount();
+
+  QSignalSpy failed(window.get(), &MainWindow::openFailed);
+  const QString bad = QStringLiteral("/nonexistent/autocal/walk42");
+  window->open(bad);
+  QVERIFY(failed.wait(kOpenTimeoutMs));
+  const QString message = failed.front().at(1).toString();
+  QVERIFY2(message.contains(bad), qPrintable(message));
+
+  // A dialog with the whole message, the log, and the recording as it was.
+  QMessageBox* box = nullptr;
+  QTRY_VERIFY((box = window->findChild<QMessageBox*>()) != nullptr && box->isVisible());
+  QCOMPARE(box->informativeText(), message);
+  QVERIFY(box->text().contains(bad));
+  const auto* log = window->findChild<QPlainTextEdit*>(QStringLiteral("log"));
+  QVERIFY(log);
+  QVERIFY(log->toPlainText().contains(message));
+  QCOMPARE(window->sequence(), before);
+  QCOMPARE(window->playback()->frameCount(), frames_before);
+  QCOMPARE(window->source(), kSimSource);
+  box->close();
+
+  // Still usable.
+  window->playback()->pause();
+  window->playback()->seekToIndex(12);
+  EXPECT_SHOWN(*window, 12);
+}
+
+void WorkbenchTest::settingsPersist() {
+  QTemporaryDir dir;
+  QVERIFY(dir.isValid());
+  const QString folder = dir.filePath(QStringLiteral("walk"));
+  QVERIFY(WriteSequence(*OpenSequence(kSimSource.toStdString()), folder.toStdString()));
+  {
+    const auto window = OpenWindow(folder);
+    QVERIFY(window);
+    auto* speed = window->findChild<QComboBox*>();
+    QVERIFY(speed);
+    speed->setCurrentIndex(speed->findData(2.0));
+    QCOMPARE(window->playback()->speed(), 2.0);
+    auto* plot_window = window->findChild<QDoubleSpinBox*>();
+    QVERIFY(plot_window);
+    plot_window->setValue(4.5);
+    QCOMPARE(window->accelPlot()->windowSeconds(), 4.5);
+    window->resize(1000, 700);
+    QTRY_COMPARE(window->size(), QSize(1000, 700));
+    window->close();
+  }
+  MainWindow window;
+  window.show();
+  QVERIFY(QTest::qWaitForWindowExposed(&window));
+  QCOMPARE(window.playback()->speed(), 2.0);
+  QCOMPARE(window.accelPlot()->windowSeconds(), 4.5);
+  QCOMPARE(window.findChild<QDoubleSpinBox*>()->value(), 4.5);
+  QCOMPARE(window.findChild<QComboBox*>()->currentData().toDouble(), 2.0);
+  QCOMPARE(window.size(), QSize(1000, 700));
+  QCOMPARE(QSettings().value(QStringLiteral("files/last_path")).toString(), folder);
+}
+
+void WorkbenchTest::screenshotIsNotBlank() {
+  const auto window = OpenWindow(kSimSource);
+  QVERIFY(window);
+  QTest::qWait(1500);  // Let it play, so the plot has a history behind the cursor.
+  const QImage shot = window->grab().toImage();
+  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
+  QVERIFY(QDir().mkpath(dir));
+  const QString path = QDir(dir).filePath(QStringLiteral("workbench.png"));
+  QVERIFY(shot.save(path, "PNG"));
+  qInfo("screenshot: %s", qPrintable(path));
+
+  std::set<QRgb> colours;
+  for (int y = 0; y < shot.height(); y += 2) {
+    for (int x = 0; x < shot.width(); x += 2) colours.insert(shot.pixel(x, y));
+  }
+  QVERIFY2(colours.size() > 1000, qPrintable(QString::number(colours.size())));
+
+  // The video area shows a picture, not a flat fill.
+  const QImage video =
+      window->videoView()->grab(window->videoView()->imageRect().toRect()).toImage();
+  QVERIFY(video.width() > 300);
+  double sum = 0.0, sum2 = 0.0;
+  int n = 0;
+  for (int y = 0; y < video.height(); y += 3) {
+    for (int x = 0; x < video.width(); x += 3) {
+      const double grey = qGray(video.pixel(x, y));
+      sum += grey;
+      sum2 += grey * grey;
+      ++n;
+    }
+  }
+  const double stddev = std::sqrt(sum2 / n - (sum / n) * (sum / n));
+  QVERIFY2(stddev > 15.0, qPrintable(QString::number(stddev)));
+}
+
+}  // namespace autocal
+
+QTEST_MAIN(autocal::WorkbenchTest)
+#include "workbench_test.moc"
