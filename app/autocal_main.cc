@@ -20,6 +20,8 @@ const std::map<QString, Subcommand>& Subcommands() {
   static const std::map<QString, Subcommand> kSubcommands = {
       {"simulate", {autocal::cli::Simulate, "write a simulated recording from a scenario"}},
       {"info", {autocal::cli::Info, "validate a recording and report its contents"}},
+      {"distortion",
+       {autocal::cli::Distortion, "estimate lens distortion from straight lines in still images"}},
   };
   return kSubcommands;
 }

@@ -8,12 +8,16 @@
 #include <string>
 
 #include <QCommandLineParser>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "devices/inspect.h"
 #include "devices/recording_writer.h"
 #include "devices/sequence.h"
 #include "devices/sim/simulator.h"
+#include "pipeline/calibration_io.h"
 #include "pipeline/error.h"
+#include "pipeline/lens_stage.h"
 
 namespace autocal::cli {
 namespace {
@@ -44,8 +48,9 @@ int UsageError(const QString& name, const QString& message, const QCommandLinePa
 // Progress on stderr: one line rewritten in place on a terminal, a line per 10% elsewhere.
 class ProgressPrinter {
  public:
-  explicit ProgressPrinter(const char* what)
-      : what_(what), tty_(isatty(STDERR_FILENO)), start_(std::chrono::steady_clock::now()) {}
+  ProgressPrinter(const char* what, const char* unit)
+      : what_(what), unit_(unit), tty_(isatty(STDERR_FILENO)),
+        start_(std::chrono::steady_clock::now()) {}
 
   bool operator()(size_t done, size_t total) {
     const int percent = total ? static_cast<int>(100 * done / total) : 100;
@@ -53,8 +58,9 @@ class ProgressPrinter {
     last_decile_ = percent / 10;
     const double elapsed = Elapsed();
     const double left = done ? elapsed * double(total - done) / double(done) : 0.0;
-    std::fprintf(stderr, "%s%s: %zu/%zu frames (%d%%), %.1f s elapsed, ~%.0f s left%s", tty_ ? "\r" : "",
-                 what_, done, total, percent, elapsed, left, tty_ ? "   " : "\n");
+    std::fprintf(stderr, "%s%s: %zu/%zu %s (%d%%), %.1f s elapsed, ~%.0f s left%s",
+                 tty_ ? "\r" : "", what_, done, total, unit_, percent, elapsed, left,
+                 tty_ ? "   " : "\n");
     if (tty_ && done == total) std::fprintf(stderr, "\n");
     return true;
   }
@@ -65,6 +71,7 @@ class ProgressPrinter {
 
  private:
   const char* what_;
+  const char* unit_;
   bool tty_;
   int last_decile_ = -1;
   std::chrono::steady_clock::time_point start_;
@@ -121,7 +128,7 @@ int Simulate(const QStringList& arguments) {
 
     const std::string out = parser.value("out").toStdString();
     const std::unique_ptr<Sequence> sequence = MakeSimulatedSequence(scenario);
-    ProgressPrinter progress("simulate");
+    ProgressPrinter progress("simulate", "frames");
     WriteSequence(*sequence, out, std::ref(progress));
     std::printf("wrote %zu frames (%dx%d) and %zu accelerometer samples to %s in %.1f s\n",
                 sequence->frame_count(), sequence->session().width, sequence->session().height,
@@ -157,6 +164,118 @@ int Info(const QStringList& arguments) {
     const SequenceReport report = InspectSequence(*sequence);
     std::printf("%s", (parser.isSet("json") ? ReportToJson(report) : FormatReport(report)).c_str());
     return HasErrors(report) ? 1 : 0;
+  } catch (const Error& error) {
+    std::fprintf(stderr, "autocal %s: %s\n", qPrintable(name), error.what());
+    return 1;
+  }
+}
+
+int Distortion(const QStringList& arguments) {
+  const QString name = "distortion";
+  QCommandLineParser parser;
+  parser.setApplicationDescription(
+      "Boxes 1-2 on still images: finds straight lines, follows them with Radon snakes\n"
+      "along the edges the lens bends, and estimates the distortion that straightens them\n"
+      "(plumb-line principle). Writes the estimate and the straightness residual (RMS\n"
+      "distance of undistorted points to their lines) before and after.");
+  parser.addPositionalArgument("images", "More image files (besides --images).", "[FILE...]");
+  parser.addOptions({
+      {"images", "Image files: a glob pattern such as 'shots/*.png' (repeatable).", "glob"},
+      {"prior", "Calibration to start from (OpenCV YAML or JSON); its focal length is held.",
+       "file"},
+      {"fov", "Without --prior: horizontal field of view assumed for the focal length, "
+              "in degrees (the pixel-space distortion does not depend on it).", "deg", "75"},
+      {"summary", "Write a JSON summary here.", "file"},
+      {"out", "Write the calibration with the estimated distortion here.", "file"},
+      {"format", "Format of --out: opencv or json (default: from the extension).", "name"},
+      {"k3", "Also estimate k3."},
+      {"tangential", "Also estimate p1, p2."},
+      {"centre", "Also estimate the distortion centre (principal point)."},
+  });
+  if (const auto code = Parse(parser, name, arguments)) return *code;
+
+  std::vector<std::string> files;
+  for (const QString& pattern : parser.values("images")) {
+    std::vector<cv::String> matches;
+    cv::glob(pattern.toStdString(), matches, false);
+    if (matches.empty()) return UsageError(name, "no file matches " + pattern, parser);
+    files.insert(files.end(), matches.begin(), matches.end());
+  }
+  for (const QString& file : parser.positionalArguments()) files.push_back(file.toStdString());
+  if (files.empty()) return UsageError(name, "no images given (--images GLOB)", parser);
+
+  try {
+    const cv::Mat first = cv::imread(files.front(), cv::IMREAD_COLOR);
+    if (first.empty()) throw Error(files.front(), 0, "cannot decode as an image");
+    CameraIntrinsics prior;
+    std::string focal_source;
+    if (parser.isSet("prior")) {
+      prior = ReadCalibration(parser.value("prior").toStdString());
+      focal_source = "prior " + parser.value("prior").toStdString();
+      if (prior.width != first.cols || prior.height != first.rows) {
+        throw Error(parser.value("prior").toStdString(), 0,
+                    "calibration is for " + std::to_string(prior.width) + "x" +
+                        std::to_string(prior.height) + " images, the images are " +
+                        std::to_string(first.cols) + "x" + std::to_string(first.rows));
+      }
+    } else {
+      bool ok = false;
+      const double fov = parser.value("fov").toDouble(&ok);
+      if (!ok || fov <= 1 || fov >= 179) return UsageError(name, "--fov takes degrees in (1, 179)", parser);
+      prior = CameraIntrinsics::FromFieldOfView(first.cols, first.rows, fov);
+      focal_source = "assumed from a " + parser.value("fov").toStdString() +
+                     " degree field of view (no --prior)";
+      std::fprintf(stderr, "autocal distortion: no --prior: focal length %s\n", focal_source.c_str());
+    }
+
+    LensOptions options;
+    options.plumb_line.estimate_k3 = parser.isSet("k3");
+    options.plumb_line.estimate_tangential = parser.isSet("tangential");
+    options.plumb_line.estimate_centre = parser.isSet("centre");
+    options.pool_size = 100000;
+    LensStage stage(options);
+    ProgressPrinter progress("distortion", "images");
+    size_t lines_found = 0, snakes = 0;
+    for (size_t i = 0; i < files.size(); ++i) {
+      const cv::Mat image = i == 0 ? first : cv::imread(files[i], cv::IMREAD_COLOR);
+      if (image.empty()) throw Error(files[i], 0, "cannot decode as an image");
+      if (image.size() != first.size()) {
+        throw Error(files[i], 0, "image is " + std::to_string(image.cols) + "x" +
+                                     std::to_string(image.rows) + ", the first was " +
+                                     std::to_string(first.cols) + "x" + std::to_string(first.rows));
+      }
+      const LensSnapshot snapshot = stage.ProcessStill(image, prior);
+      lines_found += snapshot.lines.size();
+      snakes += snapshot.snakes.size();
+      progress(i + 1, files.size());
+    }
+    const PlumbLineResult result = stage.EstimateNow(prior);
+    std::printf("%s\n", result.message.c_str());
+
+    if (parser.isSet("summary")) {
+      const std::string path = parser.value("summary").toStdString();
+      cv::FileStorage summary(path, cv::FileStorage::WRITE | cv::FileStorage::FORMAT_JSON);
+      if (!summary.isOpened()) throw Error(path, 0, "cannot write the summary");
+      const CameraIntrinsics& e = result.estimate;
+      summary << "images" << int(files.size()) << "lines_found" << int(lines_found)
+              << "snakes" << int(snakes) << "usable" << result.usable << "message"
+              << result.message << "focal_length_source" << focal_source << "lines_used"
+              << result.lines_used << "lines_rejected" << result.lines_rejected << "points_used"
+              << result.points_used << "rms_before_px" << result.rms_before_px << "rms_after_px"
+              << result.rms_after_px << "estimate" << "{" << "image_width" << e.width
+              << "image_height" << e.height << "fx" << e.fx << "fy" << e.fy << "cx" << e.cx
+              << "cy" << e.cy << "k1" << e.k1 << "k2" << e.k2 << "p1" << e.p1 << "p2" << e.p2
+              << "k3" << e.k3 << "}";
+    }
+    if (!result.usable) return 1;
+    if (parser.isSet("out")) {
+      const std::string out = parser.value("out").toStdString();
+      const std::string format =
+          parser.isSet("format") ? parser.value("format").toStdString()
+                                 : (QString::fromStdString(out).endsWith(".json") ? "json" : "opencv");
+      WriteCalibration(out, result.estimate, CalibrationFormatFromName(format));
+    }
+    return 0;
   } catch (const Error& error) {
     std::fprintf(stderr, "autocal %s: %s\n", qPrintable(name), error.what());
     return 1;

@@ -9,5 +9,6 @@ namespace autocal::cli {
 
 int Simulate(const QStringList& arguments);
 int Info(const QStringList& arguments);
+int Distortion(const QStringList& arguments);
 
 }  // namespace autocal::cli
