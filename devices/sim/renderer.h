@@ -1,0 +1,59 @@
+// Renders a scene through the exact lens model: every pixel's ray is the undistorted
+// (Newton-inverted) normalized coordinate of its distorted one, intersected with the
+// scene's planes; plane boundaries are supersampled and textures filtered by footprint.
+// Sensor effects (fog, lateral colour, vignetting, noise) follow.
+#pragma once
+
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <mutex>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "devices/sim/lens.h"
+#include "devices/sim/scene.h"
+#include "pipeline/camera_model.h"
+
+namespace autocal {
+
+struct RenderOptions {
+  int supersampling = 3;    // Sub-rays per side where a neighbour sees another plane; 1: none.
+  FrameEffects effects;     // Fog, colour fringes, vignetting and noise of this frame.
+  uint64_t noise_seed = 1;  // Seeds this frame's sensor noise.
+};
+
+struct RenderedFrame {
+  cv::Mat image;   // CV_8UC3, BGR.
+  cv::Mat labels;  // CV_16U: id of the plane each pixel centre sees; 0 for none.
+};
+
+// Per-pixel rays of one set of intrinsics (defined in renderer.cc).
+struct RayTable;
+
+class Renderer {
+ public:
+  explicit Renderer(std::shared_ptr<const Scene> scene);
+  ~Renderer();
+
+  // Thread-safe; the result depends only on the arguments.
+  RenderedFrame Render(const CameraIntrinsics& intrinsics, const Eigen::Isometry3d& world_from_cam,
+                       const RenderOptions& options) const;
+  // The label image alone (no shading, no effects): cheaper.
+  cv::Mat RenderLabels(const CameraIntrinsics& intrinsics,
+                       const Eigen::Isometry3d& world_from_cam) const;
+
+  const Scene& scene() const { return *scene_; }
+
+ private:
+  // The ray table of `intrinsics`, from the cache or built (rays depend only on the
+  // intrinsics, so a cached table is identical to a rebuilt one).
+  std::shared_ptr<const RayTable> Rays(const CameraIntrinsics& intrinsics) const;
+
+  std::shared_ptr<const Scene> scene_;
+  mutable std::mutex mutex_;
+  mutable std::list<std::shared_ptr<const RayTable>> cache_;  // Most recent first.
+};
+
+}  // namespace autocal

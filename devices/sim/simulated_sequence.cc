@@ -1,0 +1,160 @@
+// The simulated Sequence: ground truth and accelerometer computed at construction (cheap),
+// frames rendered on demand.
+#include <cstdio>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "devices/sim/accelerometer.h"
+#include "devices/sim/lens.h"
+#include "devices/sim/random.h"
+#include "devices/sim/renderer.h"
+#include "devices/sim/scene.h"
+#include "devices/sim/simulator.h"
+#include "devices/sim/trajectory.h"
+#include "pipeline/error.h"
+
+namespace autocal {
+namespace {
+
+class SimulatedSequence : public Sequence {
+ public:
+  explicit SimulatedSequence(const Scenario& scenario)
+      : scenario_(scenario),
+        trajectory_(scenario.motion, scenario.scene),
+        renderer_(BuildScene(scenario)) {
+    const AccelerometerOptions& a = scenario.accelerometer;
+    session_.camera_device = "autocal simulator (" + scenario.name + ", " + scenario.lens + ")";
+    char accel[128];
+    std::snprintf(accel, sizeof(accel), "autocal simulated accelerometer (%.0f Hz, +-%.3g g, %d bit)",
+                  a.rate_hz, a.range_g, a.bits);
+    session_.accelerometer_device = accel;
+    session_.width = scenario.width;
+    session_.height = scenario.height;
+    session_.frame_rate_hz = scenario.fps;
+    session_.accel_rate_hz = a.rate_hz;
+    session_.premission_calibration = IntrinsicsAt(scenario, 0.0);
+    session_.cam_from_accel = CamFromAccel(a);
+    session_.notes = scenario.description + " (scenario " + scenario.name + ", scene " +
+                     scenario.scene + ", seed " + std::to_string(scenario.seed) + ")";
+    accel_ = SimulateAccelerometer(scenario, trajectory_);
+    const size_t n = scenario.frame_count();
+    truth_.reserve(n);
+    for (size_t i = 0; i < n; ++i) {
+      GroundTruthFrame frame;
+      frame.t_ns = scenario.frame_time_ns(i);
+      const double t = scenario.SecondsAt(frame.t_ns);
+      frame.intrinsics = IntrinsicsAt(scenario, t);
+      frame.world_from_cam_translation = trajectory_.PositionAt(t);
+      frame.world_from_cam_rotation = Eigen::Quaterniond(trajectory_.WorldFromCamAt(t));
+      truth_.push_back(frame);
+    }
+  }
+
+  std::string Describe() const override {
+    std::ostringstream out;
+    out << "simulator scenario " << scenario_.name << " (" << scenario_.scene << ", "
+        << scenario_.lens << " lens, " << scenario_.width << "x" << scenario_.height << " @ "
+        << scenario_.fps << " fps, " << scenario_.seconds << " s, seed " << scenario_.seed << ")";
+    return out.str();
+  }
+  const SessionInfo& session() const override { return session_; }
+  size_t frame_count() const override { return truth_.size(); }
+  int64_t frame_time_ns(size_t index) const override { return Truth(index).t_ns; }
+
+  cv::Mat LoadFrame(size_t index) const override {
+    const GroundTruthFrame& truth = Truth(index);
+    RenderOptions options;
+    options.supersampling = scenario_.image.supersampling;
+    options.effects = EffectsAt(scenario_, scenario_.SecondsAt(truth.t_ns));
+    options.noise_seed = MixSeed(scenario_.seed, kFrameNoiseStream, index);
+    return renderer_.Render(truth.intrinsics, Pose(truth), options).image;
+  }
+
+  const std::vector<AccelSample>& accel() const override { return accel_; }
+  const std::vector<std::string>& warnings() const override { return warnings_; }
+  const std::vector<GroundTruthFrame>* ground_truth() const override { return &truth_; }
+
+  std::optional<cv::Mat> LoadPlaneLabels(size_t index) const override {
+    const GroundTruthFrame& truth = Truth(index);
+    return renderer_.RenderLabels(truth.intrinsics, Pose(truth));
+  }
+
+  std::optional<std::string> SceneDescription() const override {
+    return SceneDescriptionYaml(scenario_);
+  }
+
+ private:
+  const GroundTruthFrame& Truth(size_t index) const {
+    if (index >= truth_.size()) {
+      throw Error("simulator: frame " + std::to_string(index) + " requested, the sequence has " +
+                  std::to_string(truth_.size()));
+    }
+    return truth_[index];
+  }
+
+  static Eigen::Isometry3d Pose(const GroundTruthFrame& truth) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = truth.world_from_cam_rotation.toRotationMatrix();
+    pose.translation() = truth.world_from_cam_translation;
+    return pose;
+  }
+
+  Scenario scenario_;
+  Trajectory trajectory_;
+  Renderer renderer_;
+  SessionInfo session_;
+  std::vector<AccelSample> accel_;
+  std::vector<GroundTruthFrame> truth_;
+  std::vector<std::string> warnings_;
+};
+
+// Writes [x, y, z] as a flow sequence (after its key, if any).
+void WriteVector(cv::FileStorage& out, const Eigen::Vector3d& v) {
+  out << "[:" << v.x() << v.y() << v.z() << "]";
+}
+
+}  // namespace
+
+std::unique_ptr<Sequence> MakeSimulatedSequence(const Scenario& scenario) {
+  std::string why;
+  if (!scenario.Check(&why)) throw Error("scenario " + scenario.name + ": " + why);
+  return std::make_unique<SimulatedSequence>(scenario);
+}
+
+std::string SceneDescriptionYaml(const Scenario& scenario) {
+  const std::shared_ptr<const Scene> scene = BuildScene(scenario);
+  cv::FileStorage out(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+  out.writeComment(
+      "Planes of the simulated scene, world frame (z up, metres). A plane is the rectangle "
+      "origin + a axis_u + b axis_v, 0 <= a < width, 0 <= b < height, seen from the side its "
+      "normal points to; id is its value in the plane-label images (0: none).");
+  out << "scene" << scene->name;
+  out << "seed" << static_cast<int>(scenario.seed);
+  out << "planes" << "[";
+  for (const Plane& p : scene->planes) {
+    out << "{";
+    out << "id" << p.id << "name" << p.name;
+    out << "origin";
+    WriteVector(out, p.origin);
+    out << "axis_u";
+    WriteVector(out, p.axis_u);
+    out << "axis_v";
+    WriteVector(out, p.axis_v);
+    out << "normal";
+    WriteVector(out, p.normal());
+    out << "width" << p.width_m << "height" << p.height_m;
+    out << "corners" << "[";
+    for (const Eigen::Vector3d& corner : {p.Point(0, 0), p.Point(p.width_m, 0),
+                                          p.Point(p.width_m, p.height_m), p.Point(0, p.height_m)}) {
+      WriteVector(out, corner);
+    }
+    out << "]";
+    out << "}";
+  }
+  out << "]";
+  return out.releaseAndGetString();
+}
+
+}  // namespace autocal
