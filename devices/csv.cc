@@ -32,8 +32,9 @@ CsvReader::CsvReader(const std::filesystem::path& path, Separator separator,
                      std::vector<std::string> columns)
     : path_(path.string()), separator_(separator), columns_(std::move(columns)), in_(path) {
   if (!in_) {
-    throw Error(path_, 0, std::filesystem::exists(path) ? "cannot be opened for reading"
-                                                        : "file does not exist");
+    throw Error(
+        path_, 0,
+        std::filesystem::exists(path) ? "cannot be opened for reading" : "file does not exist");
   }
 }
 
@@ -66,8 +67,8 @@ bool CsvReader::Next() {
       const std::string truncated =
           in_.eof() ? "last line is truncated (no newline at the end of the file): " : "";
       Fail(truncated + "expected " + std::to_string(columns_.size()) +
-           (separator_ == Separator::kComma ? " comma" : " space") + "-separated fields: " +
-           Join(columns_) + "; got " + std::to_string(fields_.size()));
+           (separator_ == Separator::kComma ? " comma" : " space") +
+           "-separated fields: " + Join(columns_) + "; got " + std::to_string(fields_.size()));
     }
     return true;
   }

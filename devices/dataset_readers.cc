@@ -49,7 +49,8 @@ cv::Size FirstFrameSize(const ImageFileSequence::Contents& contents) {
 // Nominal rates that the dataset does not state are taken from the timestamps.
 void FillMissingRates(const ImageFileSequence::Contents& contents, SessionInfo* session) {
   if (session->frame_rate_hz <= 0.0) session->frame_rate_hz = MedianRateHz(contents.frame_times_ns);
-  if (session->accel_rate_hz <= 0.0) session->accel_rate_hz = MedianRateHz(AccelTimes(contents.accel));
+  if (session->accel_rate_hz <= 0.0)
+    session->accel_rate_hz = MedianRateHz(AccelTimes(contents.accel));
 }
 
 // --- EuRoC ---------------------------------------------------------------------------------
@@ -66,8 +67,8 @@ cv::FileStorage ReadSensorYaml(const fs::path& path) {
   std::string yaml = text.str();
   if (!yaml.starts_with("%YAML")) yaml = "%YAML:1.0\n" + yaml;
   try {
-    return cv::FileStorage(yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY |
-                                     cv::FileStorage::FORMAT_YAML);
+    return cv::FileStorage(
+        yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
   } catch (const cv::Exception& e) {
     throw Error(path.string(), 0, "is not valid YAML (" + e.err + ")");
   }
@@ -82,8 +83,7 @@ std::vector<double> Numbers(const cv::FileNode& node, size_t min_count, size_t m
       numbers.push_back(static_cast<double>(item));
     }
   }
-  if (numbers.size() != node.size() || numbers.size() < min_count ||
-      numbers.size() > max_count) {
+  if (numbers.size() != node.size() || numbers.size() < min_count || numbers.size() > max_count) {
     const std::string count = min_count == max_count
                                   ? std::to_string(min_count)
                                   : std::to_string(min_count) + " to " + std::to_string(max_count);
@@ -136,11 +136,10 @@ void ReadEurocSensors(const fs::path& mav0, SessionInfo* session) {
     };
     const std::string model = text("camera_model", "pinhole");
     const std::string distortion = text("distortion_model", "");
-    if (!yaml["intrinsics"].isNone() && model == "pinhole" &&
-        distortion == "radial-tangential") {
+    if (!yaml["intrinsics"].isNone() && model == "pinhole" && distortion == "radial-tangential") {
       const auto k = Numbers(yaml["intrinsics"], 4, 4, cam_yaml_path, "intrinsics");
-      const auto d = Numbers(yaml["distortion_coefficients"], 4, 5, cam_yaml_path,
-                             "distortion_coefficients");
+      const auto d =
+          Numbers(yaml["distortion_coefficients"], 4, 5, cam_yaml_path, "distortion_coefficients");
       CameraIntrinsics c;
       c.width = session->width;
       c.height = session->height;
@@ -364,8 +363,7 @@ std::unique_ptr<Sequence> OpenVideo(const std::string& path_name, const ReadOpti
     CsvReader reader(times_csv, CsvReader::Separator::kComma, {"timestamp [ns]"});
     ReadRows(reader, options.truncate_at_fault, &warnings, [&](CsvReader& row) {
       if (frame_times_ns.size() == frame_count) {
-        row.Fail("more timestamps than the video has frames (" + std::to_string(frame_count) +
-                 ")");
+        row.Fail("more timestamps than the video has frames (" + std::to_string(frame_count) + ")");
       }
       const int64_t t_ns = row.Int64(0);
       row.CheckIncreasing(t_ns);
@@ -380,9 +378,9 @@ std::unique_ptr<Sequence> OpenVideo(const std::string& path_name, const ReadOpti
     }
   } else if (frame_count > 0) {
     if (!(session.frame_rate_hz > 0.0)) {
-      throw Error(path_name, 0,
-                  "the container states no frame rate: give the frame times in " +
-                      times_csv.string());
+      throw Error(
+          path_name, 0,
+          "the container states no frame rate: give the frame times in " + times_csv.string());
     }
     if (accel.empty()) {
       throw Error(accel_csv.string(), 0,

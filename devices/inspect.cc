@@ -124,7 +124,8 @@ void WriteStream(cv::FileStorage& fs, const char* key, const StreamStats& stats,
   cv::write(fs, "start_s", Seconds(stats.first_ns, origin_ns));
   cv::write(fs, "duration_s", stats.duration_s);
   cv::write(fs, "median_rate_hz", stats.median_rate_hz);
-  fs << "gaps" << "[";
+  fs << "gaps"
+     << "[";
   for (const TimeGap& gap : stats.gaps) {
     fs << "{";
     cv::write(fs, "start_s", Seconds(gap.start_ns, origin_ns));
@@ -132,7 +133,8 @@ void WriteStream(cv::FileStorage& fs, const char* key, const StreamStats& stats,
     cv::write(fs, "length_s", gap.seconds());
     fs << "}";
   }
-  fs << "]" << "}";
+  fs << "]"
+     << "}";
 }
 
 }  // namespace
@@ -169,8 +171,8 @@ int64_t SequenceReport::origin_ns() const {
   return frames.count > 0 ? frames.first_ns : accel.first_ns;
 }
 
-bool SequenceReport::HasErrors() const {
-  return std::any_of(findings.begin(), findings.end(),
+bool HasErrors(const SequenceReport& report) {
+  return std::any_of(report.findings.begin(), report.findings.end(),
                      [](const Finding& f) { return f.severity == Severity::kError; });
 }
 
@@ -207,10 +209,9 @@ SequenceReport InspectSequence(const Sequence& sequence, const InspectOptions& o
   if (report.frames.count == 0) findings.push_back({Severity::kError, "no frames"});
   if (report.accel.count == 0) findings.push_back({Severity::kError, "no accelerometer samples"});
   if (report.accel.count > 1 && report.accel.median_rate_hz < options.min_accel_rate_hz) {
-    findings.push_back({Severity::kError, "accelerometer rate " +
-                                              Fixed(report.accel.median_rate_hz, 1) +
-                                              " Hz is below " +
-                                              Fixed(options.min_accel_rate_hz, 1) + " Hz"});
+    findings.push_back(
+        {Severity::kError, "accelerometer rate " + Fixed(report.accel.median_rate_hz, 1) +
+                               " Hz is below " + Fixed(options.min_accel_rate_hz, 1) + " Hz"});
   }
   AddGapFindings("frame", report.frames, origin, options, &findings);
   AddGapFindings("accelerometer", report.accel, origin, options, &findings);
@@ -230,12 +231,12 @@ SequenceReport InspectSequence(const Sequence& sequence, const InspectOptions& o
     }
     if (!report.has_overlap) {
       findings.push_back(
-          {Severity::kError,
-           "camera and accelerometer do not overlap in time: frames " +
-               Fixed(Seconds(report.frames.first_ns, origin), 3) + " to " +
-               Fixed(Seconds(report.frames.last_ns, origin), 3) + " s, accelerometer " +
-               Fixed(Seconds(report.accel.first_ns, origin), 3) + " to " +
-               Fixed(Seconds(report.accel.last_ns, origin), 3) + " s"});
+          {Severity::kError, "camera and accelerometer do not overlap in time: frames " +
+                                 Fixed(Seconds(report.frames.first_ns, origin), 3) + " to " +
+                                 Fixed(Seconds(report.frames.last_ns, origin), 3) +
+                                 " s, accelerometer " +
+                                 Fixed(Seconds(report.accel.first_ns, origin), 3) + " to " +
+                                 Fixed(Seconds(report.accel.last_ns, origin), 3) + " s"});
     } else if (report.overlap_fraction < options.min_overlap_fraction) {
       findings.push_back({Severity::kWarning, "the accelerometer covers only " +
                                                   Fixed(100.0 * report.overlap_fraction, 1) +
@@ -299,15 +300,16 @@ std::string FormatReport(const SequenceReport& report) {
 
 std::string ReportToJson(const SequenceReport& report) {
   const int64_t origin = report.origin_ns();
-  cv::FileStorage fs(".json",
-                     cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_JSON);
+  cv::FileStorage fs(
+      ".json", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_JSON);
   WriteJsonText(fs, "description", report.description);
   cv::write(fs, "origin_s", 1e-9 * static_cast<double>(origin));
   cv::write(fs, "width", report.width);
   cv::write(fs, "height", report.height);
   WriteStream(fs, "frames", report.frames, origin);
   WriteStream(fs, "accel", report.accel, origin);
-  fs << "overlap" << "{";
+  fs << "overlap"
+     << "{";
   cv::write(fs, "present", report.has_overlap ? 1 : 0);
   cv::write(fs, "start_s", Seconds(report.overlap_start_ns, origin));
   cv::write(fs, "end_s", Seconds(report.overlap_end_ns, origin));
@@ -317,10 +319,12 @@ std::string ReportToJson(const SequenceReport& report) {
   if (const auto& c = report.premission_calibration) {
     WriteJsonIntrinsics(fs, "premission_calibration", *c);
   }
-  fs << "warnings" << "[";
+  fs << "warnings"
+     << "[";
   for (const std::string& warning : report.warnings) WriteJsonText(fs, "", warning);
   fs << "]";
-  fs << "findings" << "[";
+  fs << "findings"
+     << "[";
   for (const Finding& finding : report.findings) {
     fs << "{";
     cv::write(fs, "severity", std::string(SeverityName(finding.severity)));
@@ -328,7 +332,7 @@ std::string ReportToJson(const SequenceReport& report) {
     fs << "}";
   }
   fs << "]";
-  cv::write(fs, "errors", report.HasErrors() ? 1 : 0);
+  cv::write(fs, "errors", HasErrors(report) ? 1 : 0);
   return fs.releaseAndGetString();
 }
 

@@ -70,8 +70,10 @@ struct SequenceReport {
 
   // Time origin of the rendered reports: the first frame, else the first sample.
   int64_t origin_ns() const;
-  bool HasErrors() const;
 };
+
+// True when a finding is an error: the recording is unfit for calibration.
+bool HasErrors(const SequenceReport& report);
 
 // 1 / the median interval between successive times (Hz); 0 with fewer than two.
 double MedianRateHz(const std::vector<int64_t>& times_ns);

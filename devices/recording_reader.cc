@@ -1,5 +1,7 @@
 #include "devices/recording_reader.h"
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <utility>
@@ -25,10 +27,13 @@ void RequireExists(const fs::path& path, bool folder) {
               std::string(folder ? "folder" : "file") + " does not exist: " + kLayout);
 }
 
-// Frame `index` of the ground truth must be the frame of the same index.
-void CheckGroundTruthTime(CsvReader& reader, int64_t t_ns, size_t index,
-                          const std::vector<int64_t>& frame_times_ns) {
+// Whether a ground-truth row is kept: row `index` must be that of frame `index`. Rows past
+// the last frame are an error, or, when truncating (the frames may have been cut at a
+// fault), skipped.
+bool CheckGroundTruthTime(CsvReader& reader, int64_t t_ns, size_t index,
+                          const std::vector<int64_t>& frame_times_ns, const ReadOptions& options) {
   if (index >= frame_times_ns.size()) {
+    if (options.truncate_at_fault) return false;
     reader.Fail("more rows than cam0/data.csv has frames (" +
                 std::to_string(frame_times_ns.size()) + ")");
   }
@@ -37,6 +42,7 @@ void CheckGroundTruthTime(CsvReader& reader, int64_t t_ns, size_t index,
                 std::to_string(index + 1) + " in cam0/data.csv, " +
                 std::to_string(frame_times_ns[index]));
   }
+  return true;
 }
 
 std::vector<CameraIntrinsics> ReadGroundTruthIntrinsics(const fs::path& csv,
@@ -47,7 +53,7 @@ std::vector<CameraIntrinsics> ReadGroundTruthIntrinsics(const fs::path& csv,
                    {"timestamp [ns]", "fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"});
   std::vector<CameraIntrinsics> rows;
   ReadRows(reader, options.truncate_at_fault, warnings, [&](CsvReader& row) {
-    CheckGroundTruthTime(row, row.Int64(0), rows.size(), in.frame_times_ns);
+    if (!CheckGroundTruthTime(row, row.Int64(0), rows.size(), in.frame_times_ns, options)) return;
     CameraIntrinsics c;
     c.width = in.session.width;
     c.height = in.session.height;
@@ -79,7 +85,7 @@ std::vector<Pose> ReadGroundTruthPoses(const fs::path& csv, const ImageFileSeque
                    {"timestamp [ns]", "p_x", "p_y", "p_z", "q_w", "q_x", "q_y", "q_z"});
   std::vector<Pose> rows;
   ReadRows(reader, options.truncate_at_fault, warnings, [&](CsvReader& row) {
-    CheckGroundTruthTime(row, row.Int64(0), rows.size(), in.frame_times_ns);
+    if (!CheckGroundTruthTime(row, row.Int64(0), rows.size(), in.frame_times_ns, options)) return;
     Pose pose;
     pose.translation = {row.Double(1), row.Double(2), row.Double(3)};
     pose.rotation = Eigen::Quaterniond(row.Double(4), row.Double(5), row.Double(6), row.Double(7));
@@ -104,12 +110,11 @@ void ReadGroundTruth(const fs::path& dir, const ReadOptions& options,
       ReadGroundTruthPoses(poses_csv, *contents, options, &contents->warnings);
 
   const size_t frames = contents->frame_times_ns.size();
-  for (const auto& [csv, rows] : {std::pair{intrinsics_csv, intrinsics.size()},
-                                  std::pair{poses_csv, poses.size()}}) {
+  for (const auto& [csv, rows] :
+       {std::pair{intrinsics_csv, intrinsics.size()}, std::pair{poses_csv, poses.size()}}) {
     if (rows == frames) continue;
-    const std::string what = "ends after " + std::to_string(rows) +
-                             " rows but cam0/data.csv has " + std::to_string(frames) +
-                             " frames: every frame needs ground truth";
+    const std::string what = "ends after " + std::to_string(rows) + " rows but cam0/data.csv has " +
+                             std::to_string(frames) + " frames: every frame needs ground truth";
     if (!options.truncate_at_fault) throw Error(csv.string(), 0, what);
     contents->warnings.push_back(csv.string() + ": " + what + " (frames cut to match)");
   }

@@ -20,9 +20,9 @@ class ImageFileSequence : public Sequence {
   struct Contents {
     std::string description;  // What Describe() returns.
     SessionInfo session;
-    std::vector<int64_t> frame_times_ns;  // Increasing.
+    std::vector<int64_t> frame_times_ns;             // Increasing.
     std::vector<std::filesystem::path> frame_paths;  // One per frame time.
-    std::vector<AccelSample> accel;  // Increasing in time.
+    std::vector<AccelSample> accel;                  // Increasing in time.
     std::vector<std::string> warnings;
     // Either none or one entry per frame, as are the plane-label paths (an empty path:
     // that frame has no plane labels).
@@ -36,9 +36,7 @@ class ImageFileSequence : public Sequence {
   std::string Describe() const override { return contents_.description; }
   const SessionInfo& session() const override { return contents_.session; }
   size_t frame_count() const override { return contents_.frame_times_ns.size(); }
-  int64_t frame_time_ns(size_t index) const override {
-    return contents_.frame_times_ns.at(index);
-  }
+  int64_t frame_time_ns(size_t index) const override { return contents_.frame_times_ns.at(index); }
   cv::Mat LoadFrame(size_t index) const override;
   const std::vector<AccelSample>& accel() const override { return contents_.accel; }
   const std::vector<std::string>& warnings() const override { return contents_.warnings; }
@@ -59,8 +57,7 @@ void ReadFrameList(const std::filesystem::path& csv, const std::filesystem::path
 
 // Reads accelerometer samples in the native layout
 // (`#timestamp [ns],a_x [m s^-2],a_y [m s^-2],a_z [m s^-2]`).
-std::vector<AccelSample> ReadAccelCsv(const std::filesystem::path& csv,
-                                      const ReadOptions& options,
+std::vector<AccelSample> ReadAccelCsv(const std::filesystem::path& csv, const ReadOptions& options,
                                       std::vector<std::string>* warnings);
 
 // True when `dir` has any part of a native recording (session.json, cam0/ or accel0/), so

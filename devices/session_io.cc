@@ -82,8 +82,8 @@ CameraIntrinsics ReadIntrinsics(const JsonFields& fields) {
 
 void WriteJsonText(cv::FileStorage& fs, const std::string& key, const std::string& text) {
   // cv::FileStorage writes such text without quotes, and cannot read it back.
-  const bool quoted = !text.empty() && (text.front() == '"' || text.front() == '\'') &&
-                      text.back() == text.front();
+  const bool quoted =
+      !text.empty() && (text.front() == '"' || text.front() == '\'') && text.back() == text.front();
   if (quoted) {
     throw Error("\"" + key + "\" cannot be stored: it starts and ends with a quote character");
   }
@@ -100,9 +100,9 @@ void WriteJsonIntrinsics(cv::FileStorage& fs, const std::string& key, const Came
   fs << key << "{";
   cv::write(fs, "width", c.width);
   cv::write(fs, "height", c.height);
-  const std::pair<const char*, double> values[] = {
-      {"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}, {"k1", c.k1},
-      {"k2", c.k2}, {"p1", c.p1}, {"p2", c.p2}, {"k3", c.k3}};
+  const std::pair<const char*, double> values[] = {{"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx},
+                                                   {"cy", c.cy}, {"k1", c.k1}, {"k2", c.k2},
+                                                   {"p1", c.p1}, {"p2", c.p2}, {"k3", c.k3}};
   for (const auto& [name, value] : values) cv::write(fs, name, value);
   fs << "}";
 }
@@ -128,7 +128,8 @@ std::string SessionToJson(const SessionInfo& session) {
   if (const auto& c = session.premission_calibration) {
     WriteJsonIntrinsics(fs, "premission_calibration", *c);
   }
-  fs << "cam_from_accel" << "[";
+  fs << "cam_from_accel"
+     << "[";
   for (int row = 0; row < 3; ++row) {
     for (int col = 0; col < 3; ++col) cv::write(fs, cv::String(), session.cam_from_accel(row, col));
   }
@@ -199,9 +200,9 @@ SessionInfo SessionFromJson(const std::string& json, const std::string& source) 
 SessionInfo ReadSessionFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
-    throw Error(path, 0,
-                std::filesystem::exists(path) ? "cannot be opened for reading"
-                                              : "file does not exist");
+    throw Error(
+        path, 0,
+        std::filesystem::exists(path) ? "cannot be opened for reading" : "file does not exist");
   }
   std::ostringstream text;
   text << in.rdbuf();
