@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <QGraphicsLayout>
 #include <QMouseEvent>
 #include <QPen>
 #include <QWheelEvent>
@@ -29,19 +30,25 @@ double NiceTickInterval(double span, int ticks) {
 
 AccelPlot::AccelPlot(QWidget* parent) : QChartView(parent) {
   auto* chart = new QChart;
-  chart->setMargins(QMargins(4, 4, 8, 4));
+  // Space goes to the curves: no padding around the chart, the legend beside it.
+  chart->layout()->setContentsMargins(0, 0, 0, 0);
+  chart->setMargins(QMargins(4, 6, 4, 2));
   chart->setBackgroundRoundness(0);
-  chart->legend()->setAlignment(Qt::AlignTop);
+  chart->legend()->setAlignment(Qt::AlignRight);
 
   time_axis_ = new QValueAxis;
   time_axis_->setTitleText(tr("Time since start (s)"));
-  time_axis_->setTickType(QValueAxis::TicksDynamic);
+  // Dynamic ticks on round numbers; the interval must be set before the type, as an
+  // interval of 0 would mean endless ticks.
+  time_axis_->setTickInterval(1.0);
   time_axis_->setTickAnchor(0.0);
+  time_axis_->setTickType(QValueAxis::TicksDynamic);
   value_axis_ = new QValueAxis;
   value_axis_->setTitleText(tr("Acceleration (m/s\u00b2)"));
   value_axis_->setLabelFormat(QStringLiteral("%.0f"));
-  value_axis_->setTickType(QValueAxis::TicksDynamic);
+  value_axis_->setTickInterval(1.0);
   value_axis_->setTickAnchor(0.0);
+  value_axis_->setTickType(QValueAxis::TicksDynamic);
   chart->addAxis(time_axis_, Qt::AlignBottom);
   chart->addAxis(value_axis_, Qt::AlignLeft);
 
@@ -109,6 +116,8 @@ void AccelPlot::setSamples(const std::vector<AccelSample>& samples, int64_t star
   chart()->setTitle(t_.empty() ? tr("No accelerometer data in this recording") : QString());
   redraw();
 }
+
+QSize AccelPlot::sizeHint() const { return {800, 230}; }
 
 double AccelPlot::drawnCursorTime() const {
   return cursor_->count() > 0 ? cursor_->at(0).x() : 0.0;

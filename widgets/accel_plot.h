@@ -36,6 +36,7 @@ class AccelPlot : public QChartView {
   // never scrolls past [0, duration_s].
   void setSamples(const std::vector<AccelSample>& samples, int64_t start_ns, double duration_s);
 
+  QSize sizeHint() const override;
   double windowSeconds() const { return window_s_; }
   // Where the cursor line is drawn now (it catches up with setCursorTime on the next
   // redraw).

@@ -134,7 +134,7 @@ void MainWindow::createCentralArea() {
   slider_->setToolTip(tr("Drag to seek"));
   position_label_ = new QLabel;
   position_label_->setMinimumWidth(position_label_->fontMetrics().horizontalAdvance(
-      QStringLiteral("00000.000 s / 00000.000 s   frame 000000 / 000000")));
+      QStringLiteral("00000.000 s / 00000.000 s   frame 000000 of 000000")));
 
   speed_box_ = new QComboBox;
   speed_box_->setFocusPolicy(Qt::ClickFocus);
@@ -154,6 +154,7 @@ void MainWindow::createCentralArea() {
 
   auto* transport = new QHBoxLayout;
   transport->setContentsMargins(6, 2, 6, 2);
+  transport->setSpacing(6);
   for (QAction* action :
        {start_action_, step_back_action_, play_action_, step_forward_action_, end_action_}) {
     transport->addWidget(TransportButton(action));
@@ -351,7 +352,8 @@ void MainWindow::onFrameChanged(int index) {
   const double duration = playback_->frameTime(count - 1);
   const QString time = QStringLiteral("%1 / %2").arg(FormatSeconds(playback_->currentTime()),
                                                      FormatSeconds(duration));
-  const QString frame = tr("frame %1 / %2").arg(count > 0 ? index + 1 : 0).arg(count);
+  // Indices from 0, as in the recording's files and the command-line tool.
+  const QString frame = tr("frame %1 of %2").arg(index).arg(count);
   position_label_->setText(QStringLiteral("%1   %2").arg(time, frame));
   status_position_->setText(
       QStringLiteral("%1  %2").arg(frame, FormatSeconds(playback_->currentTime())));
