@@ -19,7 +19,7 @@ int CostKiB(const QImage& image) {
 }  // namespace
 
 FrameLoader::FrameLoader(QObject* parent) : QObject(parent) {
-  setCacheBytes(kDefaultCacheBytes);
+  cache_.setMaxCost(kCacheKiB);
   connect(&watcher_, &QFutureWatcher<Decoded>::finished, this, &FrameLoader::onDecoded);
 }
 
@@ -32,10 +32,6 @@ void FrameLoader::setSequence(std::shared_ptr<const Sequence> sequence) {
   ++generation_;
   pending_.reset();
   cache_.clear();
-}
-
-void FrameLoader::setCacheBytes(qint64 bytes) {
-  cache_.setMaxCost(static_cast<int>(std::max<qint64>(1, bytes >> 10)));
 }
 
 void FrameLoader::request(int index) {

@@ -19,15 +19,14 @@ class FrameLoader : public QObject {
   Q_OBJECT
 
  public:
-  // Decoded frames kept for instant seeking back and forth, in bytes.
-  static constexpr qint64 kDefaultCacheBytes = qint64{256} << 20;
+  // Decoded frames kept for instant seeking back and forth: about 140 VGA frames.
+  static constexpr int kCacheKiB = 128 << 10;
 
   explicit FrameLoader(QObject* parent = nullptr);
   ~FrameLoader() override;
 
   // Switches to another sequence (or none); forgets cached frames and requests in flight.
   void setSequence(std::shared_ptr<const Sequence> sequence);
-  void setCacheBytes(qint64 bytes);
 
  public slots:
   // Asks for frame `index`: frameReady follows, at once when the frame is cached. Only

@@ -22,7 +22,6 @@ class SequenceOpener : public QObject {
   // Starts opening `source` (a path or "sim:SPEC", as OpenSequence takes it). A newer
   // call supersedes one still running: only the newest source reports back.
   void open(const QString& source);
-  bool isBusy() const { return watcher_.isRunning(); }
 
  signals:
   void opened(const QString& source, std::shared_ptr<const autocal::Sequence> sequence);

@@ -15,6 +15,7 @@
 #include <QSignalSpy>
 #include <QSlider>
 #include <QTemporaryDir>
+#include <QWheelEvent>
 #include <QtTest>
 #include <opencv2/core.hpp>
 
@@ -88,6 +89,7 @@ class WorkbenchTest : public QObject {
 
  private slots:
   void initTestCase();
+  void init();
   void convertsBgrFramesWithPaddedRows();
   void decimationKeepsPeaks();
   void controllerPacesByTimestamps();
@@ -113,8 +115,10 @@ void WorkbenchTest::initTestCase() {
   QSettings::setPath(QSettings::IniFormat, QSettings::UserScope, settings_dir_.path());
   QCoreApplication::setOrganizationName(QStringLiteral("autocal-test"));
   QCoreApplication::setApplicationName(QStringLiteral("workbench_test"));
-  QSettings().clear();
 }
+
+// Every test starts from the default settings.
+void WorkbenchTest::init() { QSettings().clear(); }
 
 std::unique_ptr<MainWindow> WorkbenchTest::OpenWindow(const QString& source) {
   auto window = std::make_unique<MainWindow>();
@@ -337,6 +341,17 @@ void WorkbenchTest::playsSeeksAndSteps() {
   slider->setValue(40);
   QCOMPARE(playback.frameIndex(), 40);
   EXPECT_SHOWN(*window, 40);
+
+  // The mouse wheel zooms the plot's time window; the window box follows.
+  QCOMPARE(plot.windowSeconds(), 10.0);
+  QWheelEvent wheel(QPointF(plot.viewport()->rect().center()),
+                    QPointF(plot.viewport()->mapToGlobal(plot.viewport()->rect().center())),
+                    QPoint(), QPoint(0, 120), Qt::NoButton, Qt::NoModifier, Qt::NoScrollPhase,
+                    false);
+  QApplication::sendEvent(plot.viewport(), &wheel);
+  QCOMPARE(plot.windowSeconds(), 8.0);
+  QCOMPARE(window->findChild<QDoubleSpinBox*>()->value(), 8.0);
+  QTRY_COMPARE(plot.visibleEnd() - plot.visibleStart(), 8.0);
 
   // A click on the plot seeks to the time under the mouse.
   QTRY_COMPARE(plot.drawnCursorTime(), playback.frameTime(40));
