@@ -2,9 +2,11 @@
 // telling the formats apart.
 #include "devices/dataset_readers.h"
 
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -309,6 +311,25 @@ TEST(VideoTest, FramesAreTimedFromTheFrameRateAndReadInAnyOrder) {
   EXPECT_CONTAINS(ErrorOf([&] { sequence->LoadFrame(6); }), "beyond the last frame");
 }
 
+TEST(VideoTest, FramesCanBeLoadedFromSeveralThreadsAtOnce) {
+  test::TempDir tmp;
+  WriteVideo(tmp.path(), 8);
+  const auto sequence = OpenVideo((tmp.path() / "walk.avi").string());
+  // One thread reads forwards, the other in strides: nearly every read races with a seek.
+  const auto read_many = [&](int stride, int* wrong) {
+    for (int n = 0; n < 400; ++n) {
+      const int i = (n * stride) % 8;
+      if (std::abs(MeanLevel(sequence->LoadFrame(i)) - 30.0 * i) > 2.0) ++*wrong;
+    }
+  };
+  int wrong_here = 0, wrong_there = 0;
+  std::thread other(read_many, 3, &wrong_there);
+  read_many(1, &wrong_here);
+  other.join();
+  EXPECT_EQ(wrong_here, 0);
+  EXPECT_EQ(wrong_there, 0);
+}
+
 TEST(VideoTest, TimestampsFileAndAccelCsvFallback) {
   test::TempDir tmp;
   WriteVideo(tmp.path(), 3, "accel.csv");
@@ -370,6 +391,34 @@ TEST(OpenSequenceTest, DetectsEachFormat) {
   fs::remove(tmp.path() / "native" / "session.json");
   EXPECT_CONTAINS(ErrorOf([&] { OpenSequence(tmp / "native"); }),
                   "session.json: file does not exist");
+}
+
+TEST(OpenSequenceTest, SimSpecOpensTheSimulatorAndItsCopyKeepsTheTruth) {
+  test::TempDir tmp;
+  const auto simulated = OpenSequence("sim:office,seconds=0.3,fps=10,resolution=64x48");
+  ASSERT_GE(simulated->frame_count(), 3u);
+  EXPECT_EQ(simulated->session().width, 64);
+  ASSERT_NE(simulated->ground_truth(), nullptr);
+
+  ASSERT_TRUE(WriteSequence(*simulated, tmp / "sim"));
+  const auto copy = OpenSequence(tmp / "sim");
+  ASSERT_EQ(copy->frame_count(), simulated->frame_count());
+  ASSERT_NE(copy->ground_truth(), nullptr);
+  for (size_t i = 0; i < copy->frame_count(); ++i) {
+    EXPECT_EQ(copy->frame_time_ns(i), simulated->frame_time_ns(i));
+    EXPECT_EQ(cv::norm(copy->LoadFrame(i), simulated->LoadFrame(i), cv::NORM_INF), 0.0);
+    EXPECT_EQ((*copy->ground_truth())[i].intrinsics, (*simulated->ground_truth())[i].intrinsics);
+    const std::optional<cv::Mat> labels = simulated->LoadPlaneLabels(i);
+    ASSERT_EQ(copy->LoadPlaneLabels(i).has_value(), labels.has_value());
+    if (labels) {
+      EXPECT_EQ(cv::norm(*copy->LoadPlaneLabels(i), *labels, cv::NORM_INF), 0.0);
+    }
+  }
+  ASSERT_EQ(copy->accel().size(), simulated->accel().size());
+  EXPECT_EQ(copy->accel().back().specific_force, simulated->accel().back().specific_force);
+  EXPECT_EQ(copy->SceneDescription(), simulated->SceneDescription());
+
+  EXPECT_CONTAINS(ErrorOf([] { OpenSequence("sim:office,lens"); }), "key=value");
 }
 
 TEST(OpenSequenceTest, UnknownFolderListsTheLayoutsLookedFor) {
