@@ -66,6 +66,7 @@ int main(int argc, char** argv) {
         return 0;
       }
       if (parser.isSet(options.help)) {
+        const QCoreApplication core(argc, argv);  // helpText() takes the program name from it.
         std::printf("%s", qUtf8Printable(parser.helpText()));
         return 0;
       }
@@ -79,6 +80,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "autocal-workbench: %s\n", qUtf8Printable(parser.errorText()));
     return 2;
   }
+  // The help with Qt's own options (-platform, -style, ...): process() prints it and exits.
+  if (parser.isSet(QStringLiteral("help-all"))) parser.process(app);
   const QStringList positional = parser.positionalArguments();
   if (positional.size() > 1) {
     std::fprintf(stderr, "autocal-workbench: one SOURCE at most, got %lld\n",

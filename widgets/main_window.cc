@@ -329,7 +329,7 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
 
 void MainWindow::onOpenFailed(const QString& source, const QString& message) {
   log(tr("Could not open %1: %2").arg(source, message), true);
-  statusBar()->showMessage(tr("Could not open %1 (see the log)").arg(source), 15000);
+  statusBar()->showMessage(tr("Could not open: %1").arg(message), 30000);
   if (!sequence_) {
     video_->showMessage(tr("No recording open.\nFile \u203a Open Recording Folder\u2026"));
   }
