@@ -26,6 +26,12 @@ double NiceTickInterval(double span, int ticks) {
   return 10.0 * power;
 }
 
+// A printf format with just enough decimals for ticks `tick` apart.
+QString LabelFormat(double tick) {
+  const int decimals = std::max(0, -static_cast<int>(std::floor(std::log10(tick) + 1e-9)));
+  return QStringLiteral("%.%1f").arg(decimals);
+}
+
 }  // namespace
 
 AccelPlot::AccelPlot(QWidget* parent) : QChartView(parent) {
@@ -45,7 +51,6 @@ AccelPlot::AccelPlot(QWidget* parent) : QChartView(parent) {
   time_axis_->setTickType(QValueAxis::TicksDynamic);
   value_axis_ = new QValueAxis;
   value_axis_->setTitleText(tr("Acceleration (m/s\u00b2)"));
-  value_axis_->setLabelFormat(QStringLiteral("%.0f"));
   value_axis_->setTickInterval(1.0);
   value_axis_->setTickAnchor(0.0);
   value_axis_->setTickType(QValueAxis::TicksDynamic);
@@ -112,7 +117,9 @@ void AccelPlot::setSamples(const std::vector<AccelSample>& samples, int64_t star
     y_max_ += pad;
   }
   value_axis_->setRange(y_min_, y_max_);
-  value_axis_->setTickInterval(NiceTickInterval(y_max_ - y_min_, 6));
+  const double value_tick = NiceTickInterval(y_max_ - y_min_, 6);
+  value_axis_->setTickInterval(value_tick);
+  value_axis_->setLabelFormat(LabelFormat(value_tick));
   chart()->setTitle(t_.empty() ? tr("No accelerometer data in this recording") : QString());
   redraw();
 }
@@ -194,10 +201,9 @@ void AccelPlot::redraw() {
   }
   const double t1 = t0 + window_s_;
   time_axis_->setRange(t0, t1);
-  const double tick = NiceTickInterval(window_s_, 10);
-  time_axis_->setTickInterval(tick);
-  const int decimals = std::max(0, -static_cast<int>(std::floor(std::log10(tick))));
-  time_axis_->setLabelFormat(QStringLiteral("%.%1f").arg(decimals));
+  const double time_tick = NiceTickInterval(window_s_, 10);
+  time_axis_->setTickInterval(time_tick);
+  time_axis_->setLabelFormat(LabelFormat(time_tick));
 
   const SampleRange range = VisibleRange(t_, t0, t1);
   const int columns = std::max(1, static_cast<int>(chart()->plotArea().width()));

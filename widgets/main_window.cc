@@ -1,6 +1,8 @@
 #include "widgets/main_window.h"
 
 #include <algorithm>
+#include <cmath>
+#include <iterator>
 #include <utility>
 #include <vector>
 
@@ -256,7 +258,12 @@ void MainWindow::connectControllers() {
 
 void MainWindow::restoreSettings() {
   const QSettings settings;
-  playback_->setSpeed(settings.value(kSpeedKey, 1.0).toDouble());
+  // The nearest speed the speed box offers, whatever the file says.
+  const double saved_speed = settings.value(kSpeedKey, 1.0).toDouble();
+  playback_->setSpeed(
+      *std::min_element(std::begin(kSpeeds), std::end(kSpeeds), [saved_speed](double a, double b) {
+        return std::abs(a - saved_speed) < std::abs(b - saved_speed);
+      }));
   plot_->setWindowSeconds(settings.value(kPlotWindowKey, 10.0).toDouble());
   window_box_->setValue(plot_->windowSeconds());
   last_path_ = settings.value(kLastPathKey).toString();
@@ -290,9 +297,9 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
   const int64_t start_ns = RecordingStartNs(seq);
   int64_t end_ns = count > 0 ? times.back() : start_ns;
   if (!seq.accel().empty()) end_ns = std::max(end_ns, seq.accel().back().t_ns);
-  const double fps = count > 1 ? static_cast<double>(count - 1) * 1e9 /
-                                     static_cast<double>(times.back() - times.front())
-                               : 0.0;
+  const int64_t span_ns = count > 1 ? times.back() - times.front() : 0;
+  const double fps =
+      span_ns > 0 ? static_cast<double>(count - 1) * 1e9 / static_cast<double>(span_ns) : 0.0;
 
   const QString description = QString::fromStdString(seq.Describe());
   setWindowTitle(tr("%1 \u2014 autocal workbench").arg(description));
@@ -312,13 +319,11 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
   }
   playback_->setTimeline(std::move(times), start_ns);
 
+  // One arg() call: a '%' in the description must not be taken for a placeholder.
   log(tr("Opened %1: %2 frames at %3 fps, %4 \u00d7 %5 px, %6 accelerometer samples")
-          .arg(description)
-          .arg(count)
-          .arg(fps, 0, 'f', 2)
-          .arg(seq.session().width)
-          .arg(seq.session().height)
-          .arg(seq.accel().size()));
+          .arg(description, QString::number(count), QString::number(fps, 'f', 2),
+               QString::number(seq.session().width), QString::number(seq.session().height),
+               QString::number(seq.accel().size())));
   for (const std::string& warning : seq.warnings()) {
     log(tr("Warning: %1").arg(QString::fromStdString(warning)), true);
   }
