@@ -341,36 +341,9 @@ Scenario ParseScenarioText(const std::string& file, const std::string& text,
   return scenario;
 }
 
-}  // namespace
-
-std::vector<std::string> BuiltInScenarioNames() {
-  std::vector<std::string> names;
-  for (const BuiltInScenario& s : BuiltInScenarios()) names.push_back(s.name);
-  return names;
-}
-
-Scenario LoadScenario(const std::string& name_or_path) {
-  for (const BuiltInScenario& s : BuiltInScenarios()) {
-    if (name_or_path == s.name) {
-      return ParseScenarioText(std::string(s.name) + ".yaml (built in)", s.yaml, s.name);
-    }
-  }
-  const std::filesystem::path path(name_or_path);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    std::string names;
-    for (const std::string& n : BuiltInScenarioNames()) names += (names.empty() ? "" : ", ") + n;
-    throw Error(name_or_path, 0,
-                "no such scenario: expected a built-in scenario (" + names +
-                    ") or a readable scenario YAML file");
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return ParseScenarioText(name_or_path, text.str(), path.stem().string());
-}
-
-void ApplyScenarioOverride(Scenario* scenario, const std::string& key, const std::string& value) {
-  Scenario s = *scenario;
+// Sets one field; the caller checks the whole scenario.
+void SetField(Scenario* scenario, const std::string& key, const std::string& value) {
+  Scenario& s = *scenario;
   auto number = [&](double* field) {
     if (!ParseNumber(value, field)) throw Error(key + ": expected a number, got '" + value + "'");
   };
@@ -420,6 +393,39 @@ void ApplyScenarioOverride(Scenario* scenario, const std::string& key, const std
                 "accel_rate, accel_noise, accel_range_g, accel_bits, noise_sigma, vignetting, "
                 "chromatic_px, supersampling");
   }
+}
+
+}  // namespace
+
+std::vector<std::string> BuiltInScenarioNames() {
+  std::vector<std::string> names;
+  for (const BuiltInScenario& s : BuiltInScenarios()) names.push_back(s.name);
+  return names;
+}
+
+Scenario LoadScenario(const std::string& name_or_path) {
+  for (const BuiltInScenario& s : BuiltInScenarios()) {
+    if (name_or_path == s.name) {
+      return ParseScenarioText(std::string(s.name) + ".yaml (built in)", s.yaml, s.name);
+    }
+  }
+  const std::filesystem::path path(name_or_path);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    std::string names;
+    for (const std::string& n : BuiltInScenarioNames()) names += (names.empty() ? "" : ", ") + n;
+    throw Error(name_or_path, 0,
+                "no such scenario: expected a built-in scenario (" + names +
+                    ") or a readable scenario YAML file");
+  }
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ParseScenarioText(name_or_path, text.str(), path.stem().string());
+}
+
+void ApplyScenarioOverride(Scenario* scenario, const std::string& key, const std::string& value) {
+  Scenario s = *scenario;
+  SetField(&s, key, value);
   std::string why;
   if (!s.Check(&why)) throw Error(key + "=" + value + ": " + why);
   *scenario = s;
@@ -438,8 +444,12 @@ Scenario ParseScenarioSpec(const std::string& spec) {
     if (eq == std::string::npos) {
       throw Error("scenario spec '" + spec + "': expected key=value, got '" + parts[i] + "'");
     }
-    ApplyScenarioOverride(&scenario, Trim(parts[i].substr(0, eq)), Trim(parts[i].substr(eq + 1)));
+    SetField(&scenario, Trim(parts[i].substr(0, eq)), Trim(parts[i].substr(eq + 1)));
   }
+  // Checked once all are set, so that "scene=checkerboard,motion=static" may be given in
+  // either order.
+  std::string why;
+  if (!scenario.Check(&why)) throw Error("scenario spec '" + spec + "': " + why);
   return scenario;
 }
 

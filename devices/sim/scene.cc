@@ -66,10 +66,11 @@ class SceneBuilder {
   uint32_t seed_;
 };
 
+// The colour made lighter or darker by up to `amount` grey levels, with a slight tint.
 cv::Scalar Jitter(const cv::Scalar& colour, int amount, cv::RNG& rng) {
-  return cv::Scalar(colour[0] + rng.uniform(-amount, amount + 1),
-                    colour[1] + rng.uniform(-amount, amount + 1),
-                    colour[2] + rng.uniform(-amount, amount + 1));
+  const int tone = rng.uniform(-amount, amount + 1);
+  return cv::Scalar(colour[0] + tone + rng.uniform(-3, 4), colour[1] + tone + rng.uniform(-3, 4),
+                    colour[2] + tone + rng.uniform(-3, 4));
 }
 
 // Painted wall: mottled paint, skirting board, then the furniture drawn by `furnish`, then
@@ -79,7 +80,7 @@ Canvas PaintedWall(double width_m, double height_m, double texel_m, const cv::Sc
                    cv::RNG& rng, Furnish furnish) {
   Canvas c(width_m, height_m, texel_m, paint);
   c.Mottle(0.4, 14.0, rng);
-  c.Flecks(0.006, 0.01, cv::Scalar(paint[0] * 0.75, paint[1] * 0.75, paint[2] * 0.75), rng);
+  c.Flecks(0.004, 0.004, cv::Scalar(paint[0] * 0.85, paint[1] * 0.85, paint[2] * 0.85), rng);
   c.Fill(0.0, height_m - 0.08, width_m, 0.08, cv::Scalar(55, 60, 70));
   c.Fill(0.0, height_m - 0.085, width_m, 0.006, cv::Scalar(120, 125, 130));
   furnish(c);
@@ -102,8 +103,8 @@ Canvas Carpet(double width_m, double height_m, double texel_m, cv::RNG& rng) {
     }
   }
   c.Mottle(0.15, 16.0, rng);
-  c.Flecks(0.008, 0.06, cv::Scalar(170, 160, 150), rng);
-  c.Flecks(0.006, 0.05, cv::Scalar(50, 45, 40), rng);
+  c.Flecks(0.008, 0.025, cv::Scalar(150, 140, 132), rng);
+  c.Flecks(0.006, 0.02, cv::Scalar(65, 58, 52), rng);
   for (double a = 0.0; a <= width_m; a += kTile) c.Fill(a - 0.002, 0.0, 0.004, height_m, {70, 62, 58});
   for (double b = 0.0; b <= height_m; b += kTile) c.Fill(0.0, b - 0.002, width_m, 0.004, {70, 62, 58});
   c.Grain(8.0, rng);
@@ -357,8 +358,8 @@ Scene BuildCorridor(uint32_t seed) {
         floor.Fill(a, b, kTile, kTile, Jitter(cv::Scalar(165, 172, 178), 18, rng));
       }
     }
-    floor.Flecks(0.01, 0.08, cv::Scalar(110, 115, 120), rng);
-    floor.Flecks(0.008, 0.05, cv::Scalar(230, 230, 230), rng);
+    floor.Flecks(0.01, 0.03, cv::Scalar(130, 135, 140), rng);
+    floor.Flecks(0.008, 0.02, cv::Scalar(215, 215, 215), rng);
     for (double a = 0.0; a <= kL; a += kTile) floor.Fill(a - 0.003, 0.0, 0.006, kW, {95, 95, 100});
     for (double b = 0.0; b <= kW; b += kTile) floor.Fill(0.0, b - 0.003, kL, 0.006, {95, 95, 100});
     floor.Grain(6.0, rng);
@@ -439,9 +440,9 @@ Scene BuildOutdoor(uint32_t seed) {
     Canvas ground(25.6, 25.6, 0.0125, cv::Scalar(105, 108, 110));
     ground.Mottle(3.2, 22.0, rng, true);
     ground.Mottle(0.1, 14.0, rng, true);
-    ground.Flecks(0.015, 0.05, cv::Scalar(170, 175, 180), rng);
-    ground.Flecks(0.012, 0.05, cv::Scalar(55, 55, 60), rng);
-    ground.Grain(10.0, rng);
+    ground.Flecks(0.015, 0.02, cv::Scalar(150, 152, 155), rng);
+    ground.Flecks(0.012, 0.02, cv::Scalar(70, 70, 72), rng);
+    ground.Grain(8.0, rng);
     builder.AddUpFacing("ground", -100.0, 100.0, 0.0, ground, 1.0f, true, 200.0, 200.0);
   }
   struct FacadeSpec {

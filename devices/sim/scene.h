@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 #include "devices/sim/scenario.h"
@@ -48,9 +49,10 @@ std::vector<std::string> SceneNames();
 std::shared_ptr<const Scene> BuildScene(const Scenario& scenario);
 
 // The checkerboard scene: the board lies in the plane x = kCheckerboardDistanceM facing the
-// origin, centred at height 1 m; its inner corners are at plane coordinates
-// ((i + 1) * square_m, (j + 1) * square_m), i < squares_x - 1, j < squares_y - 1 (the board
-// has a white margin of one square).
+// origin, centred at height 1 m, with a white margin of one square; square (i, j) covers
+// plane coordinates [(i + 1) s, (i + 2) s) x [(j + 1) s, (j + 2) s), s = square_m, and is
+// black when i + j is even. Inner corner (i, j), i < squares_x - 1, j < squares_y - 1, is
+// at ((i + 2) s, (j + 2) s).
 inline constexpr double kCheckerboardDistanceM = 0.5;
 
 }  // namespace autocal

@@ -1,6 +1,8 @@
 // The simulated Sequence: ground truth and accelerometer computed at construction (cheap),
 // frames rendered on demand.
 #include <cstdio>
+#include <memory>
+#include <mutex>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -21,9 +23,7 @@ namespace {
 class SimulatedSequence : public Sequence {
  public:
   explicit SimulatedSequence(const Scenario& scenario)
-      : scenario_(scenario),
-        trajectory_(scenario.motion, scenario.scene),
-        renderer_(BuildScene(scenario)) {
+      : scenario_(scenario), trajectory_(scenario.motion, scenario.scene) {
     const AccelerometerOptions& a = scenario.accelerometer;
     session_.camera_device = "autocal simulator (" + scenario.name + ", " + scenario.lens + ")";
     char accel[128];
@@ -69,7 +69,7 @@ class SimulatedSequence : public Sequence {
     options.supersampling = scenario_.image.supersampling;
     options.effects = EffectsAt(scenario_, scenario_.SecondsAt(truth.t_ns));
     options.noise_seed = MixSeed(scenario_.seed, kFrameNoiseStream, index);
-    return renderer_.Render(truth.intrinsics, Pose(truth), options).image;
+    return renderer().Render(truth.intrinsics, Pose(truth), options).image;
   }
 
   const std::vector<AccelSample>& accel() const override { return accel_; }
@@ -78,7 +78,7 @@ class SimulatedSequence : public Sequence {
 
   std::optional<cv::Mat> LoadPlaneLabels(size_t index) const override {
     const GroundTruthFrame& truth = Truth(index);
-    return renderer_.RenderLabels(truth.intrinsics, Pose(truth));
+    return renderer().RenderLabels(truth.intrinsics, Pose(truth));
   }
 
   std::optional<std::string> SceneDescription() const override {
@@ -86,6 +86,13 @@ class SimulatedSequence : public Sequence {
   }
 
  private:
+  // The scene's textures take a moment to build: only when a frame is first asked for,
+  // so that sequences used for their accelerometer or ground truth stay cheap.
+  const Renderer& renderer() const {
+    std::call_once(renderer_once_, [this] { renderer_ = std::make_unique<Renderer>(BuildScene(scenario_)); });
+    return *renderer_;
+  }
+
   const GroundTruthFrame& Truth(size_t index) const {
     if (index >= truth_.size()) {
       throw Error("simulator: frame " + std::to_string(index) + " requested, the sequence has " +
@@ -103,7 +110,8 @@ class SimulatedSequence : public Sequence {
 
   Scenario scenario_;
   Trajectory trajectory_;
-  Renderer renderer_;
+  mutable std::once_flag renderer_once_;
+  mutable std::unique_ptr<Renderer> renderer_;
   SessionInfo session_;
   std::vector<AccelSample> accel_;
   std::vector<GroundTruthFrame> truth_;

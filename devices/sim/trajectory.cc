@@ -80,7 +80,7 @@ Trajectory::Trajectory(const MotionOptions& motion, const std::string& scene) : 
   if (motion.type == "static") {
     if (scene == "office") {
       // On the table in the middle of the room, looking at the east wall and the floor.
-      rest_position_ = {0.35, 0.1, 0.85};
+      rest_position_ = {0.35, 0.1, 0.95};
       rest_yaw_deg_ = 5.0;
       rest_pitch_deg_ = 8.0;
     } else if (scene == "corridor") {
