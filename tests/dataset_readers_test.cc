@@ -286,7 +286,7 @@ void WriteVideo(const fs::path& dir, int frames, const std::string& csv_name = "
   writer.release();
   std::string csv = "#timestamp [ns],a_x [m s^-2],a_y [m s^-2],a_z [m s^-2]\n";
   for (int i = 0; i < 100; ++i) {
-    csv += std::to_string(kVideoT0 + i * 2'500'000) + ",0.5,-9.75," + std::to_string(i) + "\n";
+    csv += std::to_string(kVideoT0 + i * 2'500'000LL) + ",0.5,-9.75," + std::to_string(i) + "\n";
   }
   test::WriteTextFile(dir / csv_name, csv);
 }

@@ -31,9 +31,9 @@ struct Layout {
 Layout HandWorked() {
   Layout layout;
   for (int k = 0; k <= 10; ++k) {
-    if (k != 5) layout.frame_times.push_back(kT0 + k * 100 * kMs);
+    if (k != 5) layout.frame_times.push_back(kT0 + 100 * kMs * k);
   }
-  for (int j = 0; j <= 160; ++j) layout.accel_times.push_back(kT0 + 50 * kMs + j * 5 * kMs);
+  for (int j = 0; j <= 160; ++j) layout.accel_times.push_back(kT0 + 50 * kMs + 5 * kMs * j);
   return layout;
 }
 
@@ -131,7 +131,7 @@ TEST(InspectTest, SlowAccelerometerIsAnError) {
   test::TempDir tmp;
   Layout layout = HandWorked();
   layout.accel_times.clear();
-  for (int j = 0; j <= 50; ++j) layout.accel_times.push_back(kT0 + j * 20 * kMs);  // 50 Hz.
+  for (int j = 0; j <= 50; ++j) layout.accel_times.push_back(kT0 + 20 * kMs * j);  // 50 Hz.
   const SequenceReport report = InspectSequence(*Record(tmp, layout));
   EXPECT_DOUBLE_EQ(report.accel.median_rate_hz, 50.0);
   EXPECT_TRUE(HasErrors(report));
