@@ -63,16 +63,13 @@ bool CsvReader::Next() {
     }
 
     if (fields_.size() != columns_.size()) {
-      // getline sets eof only when the last line has no newline: a writer was cut off.
-      const std::string truncated =
-          in_.eof() ? "last line is truncated (no newline at the end of the file): " : "";
-      Fail(truncated + "expected " + std::to_string(columns_.size()) +
+      Fail("expected " + std::to_string(columns_.size()) +
            (separator_ == Separator::kComma ? " comma" : " space") +
            "-separated fields: " + Join(columns_) + "; got " + std::to_string(fields_.size()));
     }
     return true;
   }
-  if (in_.bad()) Fail("read error");
+  if (in_.bad()) throw Error(path_, line_number_, "read error");
   return false;
 }
 
@@ -99,6 +96,9 @@ double CsvReader::Double(size_t index) const {
   const std::string_view text = Text(index);
   double value = 0.0;
   const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error == std::errc::result_out_of_range) {
+    Fail(FieldLabel(index) + " is out of range: \"" + std::string(text) + "\"");
+  }
   if (error != std::errc() || end != text.data() + text.size()) {
     Fail(FieldLabel(index) + " is not a number: \"" + std::string(text) + "\"");
   }
@@ -147,7 +147,12 @@ void CsvReader::CheckIncreasing(int64_t t_ns) {
   previous_t_line_ = line_number_;
 }
 
-void CsvReader::Fail(const std::string& what) const { throw Error(path_, line_number_, what); }
+void CsvReader::Fail(const std::string& what) const {
+  // getline sets eof only when the last line has no newline: a writer was cut off.
+  const char* truncated =
+      in_.eof() ? "last line is truncated (no newline at the end of the file): " : "";
+  throw Error(path_, line_number_, truncated + what);
+}
 
 void ReadRows(CsvReader& reader, bool truncate_at_fault, std::vector<std::string>* warnings,
               const std::function<void(CsvReader&)>& read_row) {

@@ -23,8 +23,7 @@ class CsvReader {
             std::vector<std::string> columns);
 
   // Moves to the next row, skipping blank lines and '#' comments. Returns false at the
-  // end of the file. Throws Error for a row with the wrong number of fields, saying so
-  // when it is an unterminated last line (a file cut off while being written).
+  // end of the file. Throws Error for a row with the wrong number of fields.
   bool Next();
 
   // Field `index` of the current row, surrounding spaces removed.
@@ -38,7 +37,8 @@ class CsvReader {
   // Checks that `t_ns`, read from the current row, is after the previous call's value.
   void CheckIncreasing(int64_t t_ns);
 
-  // Throws Error(path, current line, what).
+  // Throws Error(path, current line, what), saying when the row is an unterminated last
+  // line (a file cut off while being written).
   [[noreturn]] void Fail(const std::string& what) const;
 
   const std::string& path() const { return path_; }
