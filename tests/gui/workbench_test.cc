@@ -1,8 +1,12 @@
 // The workbench in a real window (run under Xvfb): playback, seeking, stepping, the plot's
 // cursor, what the video view shows, error reporting and settings.
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <set>
+#include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include <QComboBox>
@@ -22,6 +26,7 @@
 #include "devices/recording_writer.h"
 #include "devices/sequence.h"
 #include "widgets/accel_plot.h"
+#include "widgets/frame_loader.h"
 #include "widgets/image_convert.h"
 #include "widgets/main_window.h"
 #include "widgets/playback_controller.h"
@@ -73,6 +78,34 @@ int NearestFrame(const Sequence& sequence, double seconds) {
   return best;
 }
 
+// Frames whose red channel is their index, slow to decode; counts the decodes. Frame 7
+// cannot be read.
+class SlowSequence : public Sequence {
+ public:
+  std::string Describe() const override { return "slow test sequence"; }
+  const SessionInfo& session() const override { return session_; }
+  size_t frame_count() const override { return 100; }
+  int64_t frame_time_ns(size_t index) const override {
+    return static_cast<int64_t>(index) * 10'000'000;
+  }
+  cv::Mat LoadFrame(size_t index) const override {
+    ++loads;
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    if (index == kDamagedFrame) throw std::runtime_error("frame 7 is damaged");
+    return cv::Mat(8, 16, CV_8UC3, cv::Scalar(0, 0, static_cast<double>(index)));
+  }
+  const std::vector<AccelSample>& accel() const override { return accel_; }
+  const std::vector<std::string>& warnings() const override { return warnings_; }
+
+  static constexpr size_t kDamagedFrame = 7;
+  mutable std::atomic<int> loads{0};
+
+ private:
+  SessionInfo session_;
+  std::vector<AccelSample> accel_;
+  std::vector<std::string> warnings_;
+};
+
 }  // namespace
 
 // ExpectShown, and stop the test at its first failure.
@@ -93,6 +126,7 @@ class WorkbenchTest : public QObject {
   void convertsBgrFramesWithPaddedRows();
   void decimationKeepsPeaks();
   void controllerPacesByTimestamps();
+  void loaderDropsStaleRequests();
   void playsSeeksAndSteps();
   void opensRecordingFolder();
   void badPathKeepsRecordingOpen();
@@ -288,6 +322,46 @@ void WorkbenchTest::controllerPacesByTimestamps() {
   playback.play();
   QVERIFY(playback.frameIndex() < 5);
   playback.pause();
+}
+
+void WorkbenchTest::loaderDropsStaleRequests() {
+  const auto sequence = std::make_shared<SlowSequence>();
+  FrameLoader loader;
+  loader.setSequence(sequence);
+  QSignalSpy ready(&loader, &FrameLoader::frameReady);
+  QSignalSpy failed(&loader, &FrameLoader::frameFailed);
+
+  // Fast seeking: frame 0 starts decoding at once, 1..49 are replaced by newer requests
+  // before they start, 50 is decoded last.
+  for (int i = 0; i <= 50; ++i) loader.request(i);
+  QTRY_COMPARE(ready.count(), 2);
+  QTest::qWait(100);
+  QCOMPARE(ready.count(), 2);
+  QCOMPARE(sequence->loads.load(), 2);
+  QCOMPARE(ready.at(0).at(0).toInt(), 0);
+  QCOMPARE(ready.at(1).at(0).toInt(), 50);
+  const QImage fifty = ready.at(1).at(1).value<QImage>();
+  QCOMPARE(fifty.size(), QSize(16, 8));
+  QCOMPARE(fifty.pixel(3, 2), qRgb(50, 0, 0));
+
+  // Cached frames come back at once, without decoding.
+  loader.request(0);
+  QCOMPARE(ready.count(), 3);
+  QCOMPARE(ready.at(2).at(0).toInt(), 0);
+  QCOMPARE(sequence->loads.load(), 2);
+
+  // A frame that cannot be read is reported with the reader's message.
+  loader.request(7);
+  QTRY_COMPARE(failed.count(), 1);
+  QCOMPARE(failed.at(0).at(0).toInt(), 7);
+  QCOMPARE(failed.at(0).at(1).toString(), QStringLiteral("frame 7 is damaged"));
+  QCOMPARE(ready.count(), 3);
+
+  // Another sequence: nothing cached from the first one is served.
+  loader.setSequence(std::make_shared<SlowSequence>());
+  loader.request(0);
+  QCOMPARE(ready.count(), 3);
+  QTRY_COMPARE(ready.count(), 4);
 }
 
 void WorkbenchTest::playsSeeksAndSteps() {
