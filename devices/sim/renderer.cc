@@ -20,6 +20,8 @@ constexpr int kMaxNewtonIterations = 30;
 // Pixels are grouped in runs of this many along a row; each run gets the list of planes
 // that can be hit by its rays.
 constexpr int kTileWidth = 32;
+// Rows of the blocks pass 1 shades together.
+constexpr int kBandHeight = 16;
 // Hits closer than this to the camera's principal plane are not rendered (the camera is
 // never that close to a surface); it bounds the projected extent of planes that reach
 // behind the camera.
@@ -62,7 +64,7 @@ bool SolveRay(const double* k, double xd, double yd, double* x, double* y, doubl
     inv[2] = -j10 / det;
     inv[3] = j00 / det;
     const double rx = px - xd, ry = py - yd;
-    if (std::sqrt(rx * rx + ry * ry) <= kRayTolerance) return true;
+    if (rx * rx + ry * ry <= kRayTolerance * kRayTolerance) return true;
     double sx = inv[0] * rx + inv[1] * ry, sy = inv[2] * rx + inv[3] * ry;
     const double step = std::sqrt(sx * sx + sy * sy);
     const double max_step = 0.5 * (1.0 + std::sqrt(*x * *x + *y * *y));
@@ -78,7 +80,8 @@ bool SolveRay(const double* k, double xd, double yd, double* x, double* y, doubl
 }
 
 // Inverse of the radial part r -> r (1 + k1 r^2 + k2 r^4 + k3 r^6), tabulated on distorted
-// radii: a starting point for Newton a step or two from the answer.
+// radii with its slope and interpolated by cubic Hermite: for a radial lens the start is
+// already within Newton's tolerance, so most pixels need one evaluation.
 class RadialInverse {
  public:
   RadialInverse(const double* k, double max_distorted) {
@@ -96,18 +99,24 @@ class RadialInverse {
     while (fold < 50.0 && df(fold + kScan) > 0.0 && f(fold) < max_distorted) fold += kScan;
     step_ = std::max(max_distorted, 1e-9) / kEntries;
     radius_.resize(kEntries + 2);
+    slope_.resize(kEntries + 2);
+    const double limit = fold + kScan;
+    double r = 0.0;
     for (int i = 0; i < kEntries + 2; ++i) {
       const double target = i * step_;
-      double lo = 0.0, hi = fold + kScan;
-      if (f(hi) <= target) {
-        radius_[i] = hi;
+      if (f(limit) <= target) {
+        radius_[i] = limit;
+        slope_[i] = 0.0;
         continue;
       }
-      for (int it = 0; it < 60; ++it) {
-        const double mid = 0.5 * (lo + hi);
-        (f(mid) < target ? lo : hi) = mid;
+      // Newton from the previous entry: f is increasing and smooth here.
+      for (int it = 0; it < 20; ++it) {
+        const double next = std::clamp(r - (f(r) - target) / df(r), 0.0, limit);
+        if (std::abs(next - r) < 1e-15) break;
+        r = next;
       }
-      radius_[i] = 0.5 * (lo + hi);
+      radius_[i] = r;
+      slope_[i] = step_ / df(r);  // dr per table step.
     }
   }
 
@@ -120,8 +129,9 @@ class RadialInverse {
     }
     const double pos = std::min(rd / step_, static_cast<double>(kEntries));
     const int i = static_cast<int>(pos);
-    const double w = pos - i;
-    const double r = radius_[i] + w * (radius_[i + 1] - radius_[i]);
+    const double w = pos - i, w2 = w * w, w3 = w2 * w;
+    const double r = (2 * w3 - 3 * w2 + 1) * radius_[i] + (w3 - 2 * w2 + w) * slope_[i] +
+                     (-2 * w3 + 3 * w2) * radius_[i + 1] + (w3 - w2) * slope_[i + 1];
     *x = xd * r / rd;
     *y = yd * r / rd;
   }
@@ -130,6 +140,7 @@ class RadialInverse {
   static constexpr int kEntries = 4096;
   double step_ = 1.0;
   std::vector<double> radius_;
+  std::vector<double> slope_;
 };
 
 // A scene plane in the camera frame, ready for ray casting: for the ray r = (x, y, 1),
@@ -409,27 +420,31 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
   RenderedFrame frame;
   frame.labels.create(height, width, CV_16U);
 
-  // Pass 1: one ray per pixel centre gives the label and the colour.
-  cv::parallel_for_(cv::Range(0, height), [&](const cv::Range& rows) {
+  // Pass 1: one ray per pixel centre gives the label and the colour. Pixels are visited
+  // in blocks of kTileWidth x kBandHeight, whose texels stay in cache.
+  const int bands = (height + kBandHeight - 1) / kBandHeight;
+  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& band_range) {
     std::vector<int> candidates(planes.size() + 1);
-    for (int v = rows.start; v < rows.end; ++v) {
-      uint16_t* label = frame.labels.ptr<uint16_t>(v);
-      cv::Vec3f* out = colour.ptr<cv::Vec3f>(v);
+    for (int band = band_range.start; band < band_range.end; ++band) {
       for (int t = 0; t < table.tiles_per_row; ++t) {
-        const int count = table.Candidates(planes, v, t, candidates.data());
-        for (int u = t * kTileWidth; u < std::min(width, (t + 1) * kTileWidth); ++u) {
-          const size_t i = static_cast<size_t>(v) * width + u;
-          label[u] = 0;
-          out[u] = cv::Vec3f(0.f, 0.f, 0.f);
-          if (!table.valid[i]) continue;
-          const Hit hit = Intersect(planes, candidates.data(), count, table.x[i], table.y[i]);
-          if (hit.plane < 0) {
-            out[u] = scene.background;
-            continue;
+        for (int v = band * kBandHeight; v < std::min(height, (band + 1) * kBandHeight); ++v) {
+          uint16_t* label = frame.labels.ptr<uint16_t>(v);
+          cv::Vec3f* out = colour.ptr<cv::Vec3f>(v);
+          const int count = table.Candidates(planes, v, t, candidates.data());
+          for (int u = t * kTileWidth; u < std::min(width, (t + 1) * kTileWidth); ++u) {
+            const size_t i = static_cast<size_t>(v) * width + u;
+            label[u] = 0;
+            out[u] = cv::Vec3f(0.f, 0.f, 0.f);
+            if (!table.valid[i]) continue;
+            const Hit hit = Intersect(planes, candidates.data(), count, table.x[i], table.y[i]);
+            if (hit.plane < 0) {
+              out[u] = scene.background;
+              continue;
+            }
+            label[u] = static_cast<uint16_t>(scene.planes[planes[hit.plane].index].id);
+            out[u] = Shade(scene, planes, hit, table.dx_du[i], table.dy_du[i], table.dx_dv[i],
+                           table.dy_dv[i]);
           }
-          label[u] = static_cast<uint16_t>(scene.planes[planes[hit.plane].index].id);
-          out[u] = Shade(scene, planes, hit, table.dx_du[i], table.dy_du[i], table.dx_dv[i],
-                         table.dy_dv[i]);
         }
       }
     }
@@ -490,31 +505,32 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
     cv::GaussianBlur(colour, colour, cv::Size(), effects.fog_blur_sigma_px,
                      effects.fog_blur_sigma_px, cv::BORDER_REFLECT);
   }
-  double corner = 0.0;
-  for (double u : {0.0, width - 1.0}) {
-    for (double v : {0.0, height - 1.0}) {
-      corner = std::max(corner, std::hypot(u - intrinsics.cx, v - intrinsics.cy));
+  // Lateral colour: red magnified and blue shrunk about the principal point, by
+  // chromatic_px at the farthest corner.
+  std::vector<cv::Mat> planes_bgr;
+  cv::split(colour, planes_bgr);
+  if (effects.chromatic_px != 0.0) {
+    double corner = 0.0;
+    for (double u : {0.0, width - 1.0}) {
+      for (double v : {0.0, height - 1.0}) {
+        corner = std::max(corner, std::hypot(u - intrinsics.cx, v - intrinsics.cy));
+      }
+    }
+    for (const auto& [channel, sign] : {std::pair{2, 1.0}, std::pair{0, -1.0}}) {
+      // Output pixel p reads the channel at c + (p - c) / scale.
+      const double inverse = 1.0 / (1.0 + sign * effects.chromatic_px / corner);
+      const cv::Matx23d output_to_input(inverse, 0.0, intrinsics.cx * (1.0 - inverse), 0.0,
+                                        inverse, intrinsics.cy * (1.0 - inverse));
+      cv::Mat moved;
+      cv::warpAffine(planes_bgr[channel], moved, output_to_input, colour.size(),
+                     cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+      planes_bgr[channel] = moved;
     }
   }
-  // Red is magnified and blue shrunk about the principal point, by chromatic_px at the
-  // farthest corner: each output pixel reads its R and B from scaled positions.
-  const double red_scale = 1.0 / (1.0 + effects.chromatic_px / corner);
-  const double blue_scale = 1.0 / (1.0 - effects.chromatic_px / corner);
-  const bool fringes = effects.chromatic_px != 0.0;
+  // Fog contrast, vignetting, noise, quantization.
   const float contrast = static_cast<float>(effects.fog_contrast);
   const float fog_offset = (1.0f - contrast) * kFogGrey;
   const float vignetting = static_cast<float>(effects.vignetting);
-  auto channel_at = [&](double px, double py, int ch) {
-    px = std::clamp(px, 0.0, width - 1.0);
-    py = std::clamp(py, 0.0, height - 1.0);
-    const int x0 = static_cast<int>(px), y0 = static_cast<int>(py);
-    const int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
-    const float wx = static_cast<float>(px - x0), wy = static_cast<float>(py - y0);
-    const float c00 = colour.at<cv::Vec3f>(y0, x0)[ch], c01 = colour.at<cv::Vec3f>(y0, x1)[ch];
-    const float c10 = colour.at<cv::Vec3f>(y1, x0)[ch], c11 = colour.at<cv::Vec3f>(y1, x1)[ch];
-    const float top = c00 + wx * (c01 - c00), bottom = c10 + wx * (c11 - c10);
-    return top + wy * (bottom - top);
-  };
   frame.image.create(height, width, CV_8UC3);
   cv::parallel_for_(cv::Range(0, height), [&](const cv::Range& rows) {
     cv::Mat noise(1, 3 * width, CV_32F, cv::Scalar(0));
@@ -525,21 +541,17 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
         rng.fill(noise, cv::RNG::NORMAL, 0.0, effects.noise_sigma);
       }
       const float* n = noise.ptr<float>(0);
-      const cv::Vec3f* in = colour.ptr<cv::Vec3f>(v);
-      cv::Vec3b* out = frame.image.ptr<cv::Vec3b>(v);
+      const float* blue = planes_bgr[0].ptr<float>(v);
+      const float* green = planes_bgr[1].ptr<float>(v);
+      const float* red = planes_bgr[2].ptr<float>(v);
+      const float* cos4 = table.cos4.data() + static_cast<size_t>(v) * width;
+      uchar* out = frame.image.ptr<uchar>(v);
       for (int u = 0; u < width; ++u) {
-        cv::Vec3f c = in[u];
-        if (fringes) {
-          const double ox = u - intrinsics.cx, oy = v - intrinsics.cy;
-          c[2] = channel_at(intrinsics.cx + ox * red_scale, intrinsics.cy + oy * red_scale, 2);
-          c[0] = channel_at(intrinsics.cx + ox * blue_scale, intrinsics.cy + oy * blue_scale, 0);
-        }
-        const size_t i = static_cast<size_t>(v) * width + u;
-        const float gain = contrast * (1.0f - vignetting * (1.0f - table.cos4[i]));
-        const float offset = fog_offset * (1.0f - vignetting * (1.0f - table.cos4[i]));
-        for (int ch = 0; ch < 3; ++ch) {
-          out[u][ch] = cv::saturate_cast<uchar>(c[ch] * gain + offset + n[3 * u + ch]);
-        }
+        const float falloff = 1.0f - vignetting * (1.0f - cos4[u]);
+        const float gain = contrast * falloff, offset = fog_offset * falloff;
+        out[3 * u] = cv::saturate_cast<uchar>(blue[u] * gain + offset + n[3 * u]);
+        out[3 * u + 1] = cv::saturate_cast<uchar>(green[u] * gain + offset + n[3 * u + 1]);
+        out[3 * u + 2] = cv::saturate_cast<uchar>(red[u] * gain + offset + n[3 * u + 2]);
       }
     }
   });

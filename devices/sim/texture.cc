@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace autocal {
@@ -10,6 +13,8 @@ namespace {
 
 // At most this many trilinear taps along the long axis of a stretched footprint.
 constexpr int kMaxAnisotropy = 4;
+// Trilinear filtering uses one mip level alone when the level of detail is this close to it.
+constexpr double kSnapLod = 0.15;
 
 inline int Wrap(int i, int n) {
   const int m = i % n;
@@ -22,19 +27,24 @@ inline int Floor(double x) {
 }
 
 // log2 of a positive float, piecewise linear between powers of two (exact at them, error
-// below 0.09): a mip level needs no more, and this is several times cheaper than log2.
+// below 0.09): a mip level needs no more, and reading the float's bits is several times
+// cheaper than log2.
 inline float FastLog2(float x) {
-  int exponent = 0;
-  const float mantissa = std::frexp(x, &exponent);  // x = mantissa 2^exponent, mantissa in [0.5, 1).
-  return static_cast<float>(exponent - 1) + 2.0f * mantissa - 1.0f;
+  uint32_t bits = 0;
+  std::memcpy(&bits, &x, sizeof(bits));
+  const int exponent = static_cast<int>((bits >> 23) & 0xff) - 127;
+  const float mantissa = static_cast<float>(bits & 0x7fffff) * (1.0f / 8388608.0f);
+  return static_cast<float>(exponent) + mantissa;
 }
 
 }  // namespace
 
 Texture::Texture(const cv::Mat& bgr, double texel_m, bool repeat)
-    : texel_m_(texel_m), repeat_(repeat) {
+    : texel_m_(texel_m), inv_texel2_(1.0 / (texel_m * texel_m)), repeat_(repeat) {
   CV_Assert(bgr.type() == CV_8UC3 && !bgr.empty() && texel_m > 0.0);
-  levels_.push_back({bgr.clone(), 1.0 / texel_m, 1.0 / texel_m});
+  cv::Mat bgra;
+  cv::cvtColor(bgr, bgra, cv::COLOR_BGR2BGRA);
+  levels_.push_back({bgra, 1.0 / texel_m, 1.0 / texel_m});
   // Each level halves the previous one by area averaging, so level texels stay aligned
   // with the ones below (cv::pyrDown would shift them by half a texel).
   while (levels_.back().image.cols > 1 || levels_.back().image.rows > 1) {
@@ -46,69 +56,88 @@ Texture::Texture(const cv::Mat& bgr, double texel_m, bool repeat)
   }
 }
 
-cv::Vec3f Texture::Bilinear(const Level& level, double a, double b) const {
+void Texture::Bilinear(const Level& level, double a, double b, float* out) const {
   const cv::Mat& image = level.image;
   const double x = a * level.scale_x - 0.5;
   const double y = b * level.scale_y - 0.5;
-  int x0 = Floor(x), y0 = Floor(y);
+  const int x0 = Floor(x), y0 = Floor(y);
   const float wx = static_cast<float>(x - x0), wy = static_cast<float>(y - y0);
-  int x1 = x0 + 1, y1 = y0 + 1;
-  if (repeat_) {
-    x0 = Wrap(x0, image.cols);
-    x1 = Wrap(x1, image.cols);
-    y0 = Wrap(y0, image.rows);
-    y1 = Wrap(y1, image.rows);
+  const uchar* p00;
+  const uchar* p01;
+  const uchar* p10;
+  const uchar* p11;
+  if (x0 >= 0 && y0 >= 0 && x0 + 1 < image.cols && y0 + 1 < image.rows) {
+    p00 = image.data + y0 * image.step[0] + 4 * x0;
+    p01 = p00 + 4;
+    p10 = p00 + image.step[0];
+    p11 = p10 + 4;
   } else {
-    x0 = std::clamp(x0, 0, image.cols - 1);
-    x1 = std::clamp(x1, 0, image.cols - 1);
-    y0 = std::clamp(y0, 0, image.rows - 1);
-    y1 = std::clamp(y1, 0, image.rows - 1);
+    // At the border: wrap round a repeating texture, else extend the border texels.
+    auto col = [&](int i) { return repeat_ ? Wrap(i, image.cols) : std::clamp(i, 0, image.cols - 1); };
+    auto row = [&](int j) { return repeat_ ? Wrap(j, image.rows) : std::clamp(j, 0, image.rows - 1); };
+    const uchar* row0 = image.ptr<uchar>(row(y0));
+    const uchar* row1 = image.ptr<uchar>(row(y0 + 1));
+    p00 = row0 + 4 * col(x0);
+    p01 = row0 + 4 * col(x0 + 1);
+    p10 = row1 + 4 * col(x0);
+    p11 = row1 + 4 * col(x0 + 1);
   }
-  const uchar* row0 = image.ptr<uchar>(y0);
-  const uchar* row1 = image.ptr<uchar>(y1);
-  cv::Vec3f out;
-  for (int c = 0; c < 3; ++c) {
-    const float top = row0[3 * x0 + c] + wx * (row0[3 * x1 + c] - row0[3 * x0 + c]);
-    const float bottom = row1[3 * x0 + c] + wx * (row1[3 * x1 + c] - row1[3 * x0 + c]);
-    out[c] = top + wy * (bottom - top);
-  }
-  return out;
+  auto texel = [](const uchar* p) {
+    return cv::v_cvt_f32(cv::v_reinterpret_as_s32(cv::v_load_expand_q(p)));
+  };
+  const cv::v_float32x4 c00 = texel(p00), c01 = texel(p01), c10 = texel(p10), c11 = texel(p11);
+  const cv::v_float32x4 vx = cv::v_setall_f32(wx), vy = cv::v_setall_f32(wy);
+  const cv::v_float32x4 top = cv::v_muladd(c01 - c00, vx, c00);
+  const cv::v_float32x4 bottom = cv::v_muladd(c11 - c10, vx, c10);
+  cv::v_store(out, cv::v_muladd(bottom - top, vy, top));
 }
 
-cv::Vec3f Texture::Trilinear(double lod, double a, double b) const {
-  if (lod <= 0.0) return Bilinear(levels_.front(), a, b);
+void Texture::Trilinear(double lod, double a, double b, float* out) const {
+  if (lod <= 0.0) return Bilinear(levels_.front(), a, b, out);
   const int last = static_cast<int>(levels_.size()) - 1;
-  if (lod >= last) return Bilinear(levels_.back(), a, b);
+  if (lod >= last) return Bilinear(levels_.back(), a, b, out);
   const int level = static_cast<int>(lod);
-  const float w = static_cast<float>(lod - level);
-  const cv::Vec3f fine = Bilinear(levels_[level], a, b);
-  const cv::Vec3f coarse = Bilinear(levels_[level + 1], a, b);
-  return fine + w * (coarse - fine);
+  const double blend = lod - level;
+  // Close to a level, that level alone is as good and half the work.
+  if (blend < kSnapLod) return Bilinear(levels_[level], a, b, out);
+  if (blend > 1.0 - kSnapLod) return Bilinear(levels_[level + 1], a, b, out);
+  float fine[4], coarse[4];
+  Bilinear(levels_[level], a, b, fine);
+  Bilinear(levels_[level + 1], a, b, coarse);
+  const cv::v_float32x4 f = cv::v_load(fine);
+  cv::v_store(out, cv::v_muladd(cv::v_load(coarse) - f,
+                                cv::v_setall_f32(static_cast<float>(blend)), f));
 }
 
 cv::Vec3f Texture::Sample(const Footprint& f) const {
-  // The pixel covers the parallelogram spanned by the two per-pixel steps; filter along
-  // its longer side with several taps and pick the mip level from what each tap covers.
-  const double len_u = std::sqrt(f.da_du * f.da_du + f.db_du * f.db_du);
-  const double len_v = std::sqrt(f.da_dv * f.da_dv + f.db_dv * f.db_dv);
-  const bool u_major = len_u >= len_v;
-  const double major = u_major ? len_u : len_v;
+  // The pixel covers the parallelogram spanned by its two steps; filter along the longer
+  // side with several taps and pick the mip level from what each tap covers. Worked in
+  // squared lengths: no square roots per pixel.
+  const double len2_u = f.da_du * f.da_du + f.db_du * f.db_du;
+  const double len2_v = f.da_dv * f.da_dv + f.db_dv * f.db_dv;
+  const bool u_major = len2_u >= len2_v;
+  const double major2 = std::max(u_major ? len2_u : len2_v, 1e-30);
   const double area = std::abs(f.da_du * f.db_dv - f.db_du * f.da_dv);
-  const double minor = major > 0.0 ? area / major : 0.0;
-  const int taps =
-      minor > 0.0 ? std::clamp(static_cast<int>(std::ceil(major / minor - 0.01)), 1, kMaxAnisotropy)
-                  : kMaxAnisotropy;
-  const double filter_width = std::max(major / taps, minor);
-  const double lod = FastLog2(static_cast<float>(std::max(filter_width / texel_m_, 1e-6)));
-  if (taps == 1) return Trilinear(lod, f.a, f.b);
+  // major / minor = major^2 / area; a stretch under 1.5 is filtered by a single tap.
+  const double stretch = major2 / std::max(area, 1e-30);
+  const int taps = std::clamp(static_cast<int>(stretch + 0.5), 1, kMaxAnisotropy);
+  const double width2 = std::max(major2 / (taps * taps), area * area / major2);
+  const double lod = 0.5 * FastLog2(static_cast<float>(width2 * inv_texel2_));
+  float out[4];
+  if (taps == 1) {
+    Trilinear(lod, f.a, f.b, out);
+    return {out[0], out[1], out[2]};
+  }
   const double step_a = u_major ? f.da_du : f.da_dv;
   const double step_b = u_major ? f.db_du : f.db_dv;
-  cv::Vec3f sum(0.f, 0.f, 0.f);
+  cv::v_float32x4 sum = cv::v_setzero_f32();
   for (int i = 0; i < taps; ++i) {
     const double s = (i + 0.5) / taps - 0.5;
-    sum += Trilinear(lod, f.a + s * step_a, f.b + s * step_b);
+    Trilinear(lod, f.a + s * step_a, f.b + s * step_b, out);
+    sum += cv::v_load(out);
   }
-  return sum * (1.0f / taps);
+  cv::v_store(out, sum * cv::v_setall_f32(1.0f / taps));
+  return {out[0], out[1], out[2]};
 }
 
 }  // namespace autocal

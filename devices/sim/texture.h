@@ -28,20 +28,21 @@ class Texture {
   cv::Vec3f Sample(const Footprint& footprint) const;
 
   double texel_m() const { return texel_m_; }
-  const cv::Mat& image() const { return levels_.front().image; }
 
  private:
   struct Level {
-    cv::Mat image;   // CV_8UC3.
+    cv::Mat image;   // CV_8UC4 (BGR and a pad byte: one texel is one 32-bit load).
     double scale_x;  // Texels of this level per metre along a.
     double scale_y;  // Texels of this level per metre along b.
   };
 
-  cv::Vec3f Bilinear(const Level& level, double a, double b) const;
-  cv::Vec3f Trilinear(double lod, double a, double b) const;
+  // Bilinear and trilinear lookups write B, G, R (and the pad) to out[0..3].
+  void Bilinear(const Level& level, double a, double b, float* out) const;
+  void Trilinear(double lod, double a, double b, float* out) const;
 
   std::vector<Level> levels_;
   double texel_m_;
+  double inv_texel2_;  // 1 / texel_m^2.
   bool repeat_;
 };
 
