@@ -34,7 +34,9 @@ void RenderFrames(benchmark::State& state, const std::string& spec) {
 
 void BM_Office320x240(benchmark::State& state) { RenderFrames(state, "office,resolution=320x240"); }
 void BM_Office640x480(benchmark::State& state) { RenderFrames(state, "office"); }
-void BM_Office1280x720(benchmark::State& state) { RenderFrames(state, "office,resolution=1280x720"); }
+void BM_Office1280x720(benchmark::State& state) {
+  RenderFrames(state, "office,resolution=1280x720");
+}
 void BM_OfficeSonnar640x480(benchmark::State& state) { RenderFrames(state, "office,lens=sonnar"); }
 // The intrinsics change every frame: every frame also rebuilds its ray table.
 void BM_Drift640x480(benchmark::State& state) { RenderFrames(state, "drift"); }

@@ -6,8 +6,8 @@
 #include <set>
 #include <thread>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -125,15 +125,13 @@ TEST_P(CheckerboardTest, CornersLandWhereProjectPutsThem) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Lenses, CheckerboardTest,
-                         ::testing::Values(BoardCase{"tessar", 0.45, 0.0, 0.0},
-                                           BoardCase{"tessar", 0.5, 25.0, -10.0},
-                                           BoardCase{"sonnar", 0.33, 0.0, 0.0},
-                                           BoardCase{"sonnar", 0.42, -30.0, 20.0}),
-                         [](const ::testing::TestParamInfo<BoardCase>& param_info) {
-                           return std::string(param_info.param.lens) + "_" +
-                                  std::to_string(param_info.index);
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    Lenses, CheckerboardTest,
+    ::testing::Values(BoardCase{"tessar", 0.45, 0.0, 0.0}, BoardCase{"tessar", 0.5, 25.0, -10.0},
+                      BoardCase{"sonnar", 0.33, 0.0, 0.0}, BoardCase{"sonnar", 0.42, -30.0, 20.0}),
+    [](const ::testing::TestParamInfo<BoardCase>& param_info) {
+      return std::string(param_info.param.lens) + "_" + std::to_string(param_info.index);
+    });
 
 // Ray-rectangle intersection written independently of the renderer.
 int PlaneSeenBy(const Scene& scene, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
@@ -223,7 +221,8 @@ TEST(LensTest, SonnarHasStrongBarrelAndSeesEightyFiveDegrees) {
   ASSERT_TRUE(right.has_value());
   EXPECT_NEAR(std::atan(right->x()) * 180.0 / M_PI, 42.5, 1e-6);
   // Every pixel, corners included, has a ray.
-  for (const Eigen::Vector2d& corner : {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(639.5, 479.5)}) {
+  for (const Eigen::Vector2d& corner :
+       {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(639.5, 479.5)}) {
     EXPECT_TRUE(Unproject(k, corner).has_value());
   }
 }
@@ -336,7 +335,8 @@ TEST(TrajectoryTest, CameraLooksInVariedDirections) {
     const double pitch = std::asin(-forward.z()) * 180.0 / M_PI;
     min_pitch = std::min(min_pitch, pitch);
     max_pitch = std::max(max_pitch, pitch);
-    headings.insert(static_cast<int>(std::floor(std::atan2(forward.y(), forward.x()) / (M_PI / 4))));
+    headings.insert(
+        static_cast<int>(std::floor(std::atan2(forward.y(), forward.x()) / (M_PI / 4))));
   }
   EXPECT_EQ(headings.size(), 8u);
   EXPECT_NEAR(min_pitch, 4.0, 1.0);  // 10 deg down, +-6.
@@ -384,8 +384,8 @@ TEST(AccelerometerTest, NoiseFreeSamplesAreTheSecondDerivativeOfThePath) {
   double worst = 0.0, largest = 0.0;
   for (size_t i = 0; i < samples.size(); i += 7) {
     const double t = s.SecondsAt(samples[i].t_ns);
-    const Eigen::Vector3d a = (walk.PositionAt(t + h) - 2.0 * walk.PositionAt(t) +
-                               walk.PositionAt(t - h)) / (h * h);
+    const Eigen::Vector3d a =
+        (walk.PositionAt(t + h) - 2.0 * walk.PositionAt(t) + walk.PositionAt(t - h)) / (h * h);
     const Eigen::Matrix3d world_from_accel = walk.WorldFromCamAt(t) * cam_from_accel;
     const Eigen::Vector3d expected = world_from_accel.transpose() * (a - kGravityWorld);
     worst = std::max(worst, (samples[i].specific_force - expected).norm());
@@ -415,8 +415,7 @@ TEST(AccelerometerTest, SaturatesAndQuantizes) {
   s.seconds = 2.0;
   s.accelerometer.range_g = 1.0;  // Gravity alone nearly saturates.
   s.accelerometer.bits = 8;
-  const std::vector<AccelSample> samples =
-      SimulateAccelerometer(s, Trajectory(s.motion, s.scene));
+  const std::vector<AccelSample> samples = SimulateAccelerometer(s, Trajectory(s.motion, s.scene));
   const double range = kGravity, lsb = 2.0 * range / 256.0;
   bool saturated = false;
   for (const AccelSample& sample : samples) {
@@ -520,7 +519,8 @@ TEST(ScenarioTest, BadFilesNameFileFieldAndLine) {
     EXPECT_NE(e.what_expected().find("accelerometer.rate_hz"), std::string::npos) << e.what();
     EXPECT_NE(e.what_expected().find("number"), std::string::npos) << e.what();
   }
-  test::WriteTextFile(path, "scene: office\nfps: 30\naccelerometer:\n  bits: 12\n  rate_hz: 2000\n");
+  test::WriteTextFile(path,
+                      "scene: office\nfps: 30\naccelerometer:\n  bits: 12\n  rate_hz: 2000\n");
   try {
     LoadScenario(path);
     FAIL() << "no error";
@@ -537,7 +537,9 @@ TEST(ScenarioTest, BadFilesNameFileFieldAndLine) {
     EXPECT_EQ(e.line(), 2);
     EXPECT_NE(e.what_expected().find("lense"), std::string::npos) << e.what();
   }
-  test::WriteTextFile(path, "disturbances:\n  - {kind: fog, start: 1, end: 2}\n  - {kind: smoke, start: 1, end: 2}\n");
+  test::WriteTextFile(
+      path,
+      "disturbances:\n  - {kind: fog, start: 1, end: 2}\n  - {kind: smoke, start: 1, end: 2}\n");
   try {
     LoadScenario(path);
     FAIL() << "no error";

@@ -78,8 +78,8 @@ CameraIntrinsics IntrinsicsAt(const Scenario& scenario, double t_s) {
   CameraIntrinsics c = LensIntrinsics(scenario.lens, scenario.width, scenario.height);
   double fx_scale = 1.0, fy_scale = 1.0, cx_shift = 0.0, cy_shift = 0.0;
   for (const IntrinsicsEvent& event : scenario.intrinsics_events) {
-    const double ramp = Ramp(t_s, event.start.Seconds(scenario.seconds),
-                             event.end.Seconds(scenario.seconds));
+    const double ramp =
+        Ramp(t_s, event.start.Seconds(scenario.seconds), event.end.Seconds(scenario.seconds));
     fx_scale *= 1.0 + (event.fx_scale - 1.0) * ramp;
     fy_scale *= 1.0 + (event.fy_scale - 1.0) * ramp;
     cx_shift += event.cx_px * ramp;

@@ -55,7 +55,8 @@ cv::Rect Canvas::R(double a, double b, double w, double h) const {
 
 void Canvas::Paste(const Canvas& other, double a, double b) {
   const cv::Point origin = P(a, b);
-  const cv::Rect target = cv::Rect(origin, other.image_.size()) & cv::Rect(0, 0, image_.cols, image_.rows);
+  const cv::Rect target =
+      cv::Rect(origin, other.image_.size()) & cv::Rect(0, 0, image_.cols, image_.rows);
   if (target.empty()) return;
   other.image_(cv::Rect(target.tl() - origin, target.size())).copyTo(image_(target));
 }
@@ -205,8 +206,7 @@ void DrawPicture(Canvas* c, double a, double b, double w, double h, cv::RNG& rng
   }
 }
 
-void DrawDoor(Canvas* c, double a, double b, double w, double h, bool vision_panel,
-              cv::RNG& rng) {
+void DrawDoor(Canvas* c, double a, double b, double w, double h, bool vision_panel, cv::RNG& rng) {
   const double frame = 0.06;
   const cv::Scalar frame_colour(60, 60, 66);
   const cv::Scalar leaf(rng.uniform(60, 110), rng.uniform(100, 150), rng.uniform(150, 200));
@@ -340,8 +340,8 @@ void DrawClock(Canvas* c, double a, double b, double radius_m, cv::RNG& rng) {
   const double hour = rng.uniform(0.0, 2.0 * M_PI), minute = rng.uniform(0.0, 2.0 * M_PI);
   c->Line(a, b, a + 0.5 * radius_m * std::sin(hour), b - 0.5 * radius_m * std::cos(hour), 0.01,
           cv::Scalar(20, 20, 20));
-  c->Line(a, b, a + 0.8 * radius_m * std::sin(minute), b - 0.8 * radius_m * std::cos(minute),
-          0.006, cv::Scalar(20, 20, 20));
+  c->Line(a, b, a + 0.8 * radius_m * std::sin(minute), b - 0.8 * radius_m * std::cos(minute), 0.006,
+          cv::Scalar(20, 20, 20));
 }
 
 void DrawRadiator(Canvas* c, double a, double b, double w, double h) {

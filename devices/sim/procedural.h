@@ -60,8 +60,8 @@ void DrawPoster(Canvas* canvas, double a, double b, double w, double h, cv::RNG&
 void DrawPicture(Canvas* canvas, double a, double b, double w, double h, cv::RNG& rng);
 void DrawDoor(Canvas* canvas, double a, double b, double w, double h, bool vision_panel,
               cv::RNG& rng);
-void DrawWindow(Canvas* canvas, double a, double b, double w, double h, int panes_x,
-                int panes_y, cv::RNG& rng);
+void DrawWindow(Canvas* canvas, double a, double b, double w, double h, int panes_x, int panes_y,
+                cv::RNG& rng);
 void DrawWhiteboard(Canvas* canvas, double a, double b, double w, double h, cv::RNG& rng);
 void DrawNoticeBoard(Canvas* canvas, double a, double b, double w, double h, cv::RNG& rng);
 void DrawBookshelf(Canvas* canvas, double a, double b, double w, double h, cv::RNG& rng);

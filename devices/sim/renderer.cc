@@ -400,7 +400,8 @@ cv::Mat Renderer::RenderLabels(const CameraIntrinsics& intrinsics,
           out[u] = 0;
           if (!rays->valid[i]) continue;
           const Hit hit = Intersect(planes, candidates.data(), count, rays->x[i], rays->y[i]);
-          if (hit.plane >= 0) out[u] = static_cast<uint16_t>(scene_->planes[planes[hit.plane].index].id);
+          if (hit.plane >= 0)
+            out[u] = static_cast<uint16_t>(scene_->planes[planes[hit.plane].index].id);
         }
       }
     }
@@ -519,8 +520,8 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
     for (const auto& [channel, sign] : {std::pair{2, 1.0}, std::pair{0, -1.0}}) {
       // Output pixel p reads the channel at c + (p - c) / scale.
       const double inverse = 1.0 / (1.0 + sign * effects.chromatic_px / corner);
-      const cv::Matx23d output_to_input(inverse, 0.0, intrinsics.cx * (1.0 - inverse), 0.0,
-                                        inverse, intrinsics.cy * (1.0 - inverse));
+      const cv::Matx23d output_to_input(inverse, 0.0, intrinsics.cx * (1.0 - inverse), 0.0, inverse,
+                                        intrinsics.cy * (1.0 - inverse));
       cv::Mat moved;
       cv::warpAffine(planes_bgr[channel], moved, output_to_input, colour.size(),
                      cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);

@@ -114,8 +114,8 @@ bool Scenario::Check(std::string* error) const {
     const Disturbance& d = disturbances[i];
     const double start = d.start.Seconds(seconds), end = d.end.Seconds(seconds);
     if (!(start >= 0.0) || !(end > start)) {
-      why << "disturbances[" << i << "]: needs 0 <= start < end, got start "
-          << TimeText(d.start) << ", end " << TimeText(d.end);
+      why << "disturbances[" << i << "]: needs 0 <= start < end, got start " << TimeText(d.start)
+          << ", end " << TimeText(d.end);
     } else if (!in(d.blur_sigma_px, 0.0, 50.0) || !in(d.contrast, 0.01, 1.0) ||
                !in(d.noise_sigma, 0.0, 128.0)) {
       why << "disturbances[" << i

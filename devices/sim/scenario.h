@@ -21,25 +21,25 @@ struct ScenarioTime {
 };
 
 struct MotionOptions {
-  std::string type = "walk";      // "walk" (a closed path through the scene) or "static".
-  double speed_mps = 1.2;         // Mean walking speed along the path.
-  double height_m = 1.4;          // Camera height above the floor while walking.
-  double step_hz = 1.8;           // Step frequency; the bob runs at it, the sway at half.
-  double bob_m = 0.025;           // Vertical step bob, peak to peak.
-  double sway_m = 0.03;           // Lateral sway, peak to peak.
-  double scan_deg = 15.0;         // Head yaw scanning amplitude around the heading.
-  double scan_hz = 0.2;           // Head yaw scanning frequency.
-  double pitch_deg = 10.0;        // Mean downward tilt of the camera.
-  double pitch_swing_deg = 6.0;   // Pitch oscillation amplitude around the mean.
-  double roll_deg = 3.0;          // Roll oscillation amplitude.
+  std::string type = "walk";     // "walk" (a closed path through the scene) or "static".
+  double speed_mps = 1.2;        // Mean walking speed along the path.
+  double height_m = 1.4;         // Camera height above the floor while walking.
+  double step_hz = 1.8;          // Step frequency; the bob runs at it, the sway at half.
+  double bob_m = 0.025;          // Vertical step bob, peak to peak.
+  double sway_m = 0.03;          // Lateral sway, peak to peak.
+  double scan_deg = 15.0;        // Head yaw scanning amplitude around the heading.
+  double scan_hz = 0.2;          // Head yaw scanning frequency.
+  double pitch_deg = 10.0;       // Mean downward tilt of the camera.
+  double pitch_swing_deg = 6.0;  // Pitch oscillation amplitude around the mean.
+  double roll_deg = 3.0;         // Roll oscillation amplitude.
 };
 
 struct AccelerometerOptions {
-  double rate_hz = 400.0;                // Sample rate, at most 1600 Hz.
-  double noise_density = 0.002;          // White noise, (m/s^2)/sqrt(Hz).
+  double rate_hz = 400.0;                   // Sample rate, at most 1600 Hz.
+  double noise_density = 0.002;             // White noise, (m/s^2)/sqrt(Hz).
   Eigen::Vector3d bias{0.04, -0.06, 0.03};  // Constant bias per axis, m/s^2.
-  double range_g = 3.0;                  // Readings saturate at +-range_g * 9.81 m/s^2.
-  int bits = 16;                         // Quantization over the full range; 0: none.
+  double range_g = 3.0;                     // Readings saturate at +-range_g * 9.81 m/s^2.
+  int bits = 16;                            // Quantization over the full range; 0: none.
   // Mounting error: rotation vector (degrees) applied after the nominal axes (x forward,
   // y left, z up when the camera looks forward).
   Eigen::Vector3d misalignment_deg{0.5, -1.0, 0.3};
@@ -82,15 +82,15 @@ struct CheckerboardOptions {
 };
 
 struct Scenario {
-  std::string name;         // "office", ...; file name for scenario files.
-  std::string description;  // One line for humans.
+  std::string name;              // "office", ...; file name for scenario files.
+  std::string description;       // One line for humans.
   std::string scene = "office";  // office, corridor, outdoor or checkerboard.
   std::string lens = "tessar";   // tessar or sonnar.
   int width = 640;               // Image size in pixels.
   int height = 480;
-  double fps = 30.0;             // Frame rate.
-  double seconds = 20.0;         // Duration: frames cover [0, seconds).
-  uint32_t seed = 1;             // Seeds textures, noise and the accelerometer.
+  double fps = 30.0;                 // Frame rate.
+  double seconds = 20.0;             // Duration: frames cover [0, seconds).
+  uint32_t seed = 1;                 // Seeds textures, noise and the accelerometer.
   int64_t start_ns = 1'000'000'000;  // Timestamp of the first frame.
   MotionOptions motion;
   AccelerometerOptions accelerometer;

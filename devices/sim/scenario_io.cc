@@ -86,9 +86,9 @@ class ScenarioReader {
 
   void Read(const cv::FileNode& root, Scenario* s) const {
     if (!root.isMap()) Fail("(top level)", "expected a map of fields");
-    Keys(root, "", {"name", "description", "scene", "lens", "resolution", "fps", "seconds",
-                    "seed", "motion", "accelerometer", "image", "checkerboard",
-                    "intrinsics_events", "disturbances"});
+    Keys(root, "",
+         {"name", "description", "scene", "lens", "resolution", "fps", "seconds", "seed", "motion",
+          "accelerometer", "image", "checkerboard", "intrinsics_events", "disturbances"});
     if (!root["name"].empty()) s->name = String(root["name"], "name");
     if (!root["description"].empty()) s->description = String(root["description"], "description");
     if (!root["scene"].empty()) s->scene = String(root["scene"], "scene");
@@ -106,8 +106,9 @@ class ScenarioReader {
     if (!root["image"].empty()) Image(root["image"], &s->image);
     if (!root["checkerboard"].empty()) Checkerboard(root["checkerboard"], &s->checkerboard);
     if (!root["intrinsics_events"].empty()) {
-      s->intrinsics_events = List<IntrinsicsEvent>(root["intrinsics_events"], "intrinsics_events",
-                                                    [this](auto& n, auto& f, auto* e) { Event(n, f, e); });
+      s->intrinsics_events =
+          List<IntrinsicsEvent>(root["intrinsics_events"], "intrinsics_events",
+                                [this](auto& n, auto& f, auto* e) { Event(n, f, e); });
     }
     if (!root["disturbances"].empty()) {
       s->disturbances = List<Disturbance>(root["disturbances"], "disturbances",
@@ -177,7 +178,8 @@ class ScenarioReader {
   }
 
   Eigen::Vector3d Vector3(const cv::FileNode& node, const std::string& field) const {
-    if (!node.isSeq() || node.size() != 3) Fail(field, "expected a list of three numbers [x, y, z]");
+    if (!node.isSeq() || node.size() != 3)
+      Fail(field, "expected a list of three numbers [x, y, z]");
     Eigen::Vector3d v;
     for (int i = 0; i < 3; ++i) v[i] = Number(node[i], field);
     return v;
@@ -208,8 +210,9 @@ class ScenarioReader {
       return;
     }
     if (!node.isMap()) Fail("motion", "expected walk, static or a map of motion fields");
-    Keys(node, "motion.", {"type", "speed", "height", "step_hz", "bob", "sway", "scan_deg",
-                           "scan_hz", "pitch_deg", "pitch_swing_deg", "roll_deg"});
+    Keys(node, "motion.",
+         {"type", "speed", "height", "step_hz", "bob", "sway", "scan_deg", "scan_hz", "pitch_deg",
+          "pitch_swing_deg", "roll_deg"});
     if (!node["type"].empty()) m->type = String(node["type"], "motion.type");
     Optional(node, "speed", "motion.", &m->speed_mps);
     Optional(node, "height", "motion.", &m->height_m);
@@ -251,8 +254,10 @@ class ScenarioReader {
   void Checkerboard(const cv::FileNode& node, CheckerboardOptions* c) const {
     if (!node.isMap()) Fail("checkerboard", "expected a map of fields");
     Keys(node, "checkerboard.", {"squares_x", "squares_y", "square_m"});
-    if (!node["squares_x"].empty()) c->squares_x = Integer(node["squares_x"], "checkerboard.squares_x");
-    if (!node["squares_y"].empty()) c->squares_y = Integer(node["squares_y"], "checkerboard.squares_y");
+    if (!node["squares_x"].empty())
+      c->squares_x = Integer(node["squares_x"], "checkerboard.squares_x");
+    if (!node["squares_y"].empty())
+      c->squares_y = Integer(node["squares_y"], "checkerboard.squares_y");
     Optional(node, "square_m", "checkerboard.", &c->square_m);
   }
 

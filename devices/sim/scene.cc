@@ -47,8 +47,7 @@ class SceneBuilder {
   }
   // A horizontal rectangle seen from above; u runs along +x, v along -y.
   void AddUpFacing(const std::string& name, double x0, double y1, double z, const Canvas& canvas,
-                   float shade, bool repeat = false, double width_m = 0.0,
-                   double height_m = 0.0) {
+                   float shade, bool repeat = false, double width_m = 0.0, double height_m = 0.0) {
     Add(name, {x0, y1, z}, Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitY(), canvas, repeat,
         shade, width_m, height_m);
   }
@@ -105,8 +104,10 @@ Canvas Carpet(double width_m, double height_m, double texel_m, cv::RNG& rng) {
   c.Mottle(0.15, 16.0, rng);
   c.Flecks(0.008, 0.025, cv::Scalar(150, 140, 132), rng);
   c.Flecks(0.006, 0.02, cv::Scalar(65, 58, 52), rng);
-  for (double a = 0.0; a <= width_m; a += kTile) c.Fill(a - 0.002, 0.0, 0.004, height_m, {70, 62, 58});
-  for (double b = 0.0; b <= height_m; b += kTile) c.Fill(0.0, b - 0.002, width_m, 0.004, {70, 62, 58});
+  for (double a = 0.0; a <= width_m; a += kTile)
+    c.Fill(a - 0.002, 0.0, 0.004, height_m, {70, 62, 58});
+  for (double b = 0.0; b <= height_m; b += kTile)
+    c.Fill(0.0, b - 0.002, width_m, 0.004, {70, 62, 58});
   c.Grain(8.0, rng);
   return c;
 }
@@ -121,13 +122,17 @@ Canvas TiledCeiling(double width_m, double height_m, double texel_m, double ligh
   for (double a = 1.2; a + kTile < width_m; a += light_every_m) {
     for (double b = 0.6; b + 2 * kTile <= height_m; b += 2.4) {
       c.Fill(a, b, kTile, 2 * kTile, cv::Scalar(252, 252, 250));
-      for (double x = a + 0.1; x < a + kTile; x += 0.1) c.Fill(x, b, 0.006, 2 * kTile, {200, 200, 200});
-      for (double y = b + 0.1; y < b + 2 * kTile; y += 0.1) c.Fill(a, y, kTile, 0.006, {200, 200, 200});
+      for (double x = a + 0.1; x < a + kTile; x += 0.1)
+        c.Fill(x, b, 0.006, 2 * kTile, {200, 200, 200});
+      for (double y = b + 0.1; y < b + 2 * kTile; y += 0.1)
+        c.Fill(a, y, kTile, 0.006, {200, 200, 200});
     }
   }
   // The T-bar grid: the strong straight lines of a suspended ceiling.
-  for (double a = 0.0; a <= width_m; a += kTile) c.Fill(a - 0.012, 0.0, 0.024, height_m, {185, 188, 190});
-  for (double b = 0.0; b <= height_m; b += kTile) c.Fill(0.0, b - 0.012, width_m, 0.024, {185, 188, 190});
+  for (double a = 0.0; a <= width_m; a += kTile)
+    c.Fill(a - 0.012, 0.0, 0.024, height_m, {185, 188, 190});
+  for (double b = 0.0; b <= height_m; b += kTile)
+    c.Fill(0.0, b - 0.012, width_m, 0.024, {185, 188, 190});
   for (int i = 0; i < static_cast<int>(width_m * height_m / 8.0); ++i) {
     const double a = kTile * (rng.uniform(0, static_cast<int>(width_m / kTile)) + 0.5);
     const double b = kTile * (rng.uniform(0, static_cast<int>(height_m / kTile)) + 0.5);
@@ -194,7 +199,7 @@ Canvas DeskTop(double width_m, double height_m, cv::RNG& rng) {
   DrawPaper(&c, 0.33, 0.06, 0.21, 0.297, rng);
   DrawPaper(&c, 1.0, 0.15, 0.297, 0.21, rng);
   c.Fill(0.95, 0.5, 0.25, 0.18, cv::Scalar(40, 40, 140));  // A notebook.
-  c.Disc(0.2, 0.6, 0.045, cv::Scalar(235, 235, 235));    // A mug.
+  c.Disc(0.2, 0.6, 0.045, cv::Scalar(235, 235, 235));      // A mug.
   c.Ring(0.2, 0.6, 0.045, 0.006, cv::Scalar(60, 60, 60));
   c.Disc(0.2, 0.6, 0.032, cv::Scalar(40, 60, 90));
   c.Grain(5.0, rng);
@@ -405,11 +410,13 @@ Canvas Facade(double width_m, double height_m, const cv::Scalar& wall, cv::RNG& 
   c.Mottle(2.0, 14.0, rng);
   c.Mottle(0.2, 8.0, rng);
   constexpr double kStorey = 3.2;
-  const double window_w = rng.uniform(1.2, 1.8), window_h = 1.6, bay = window_w + rng.uniform(0.8, 1.5);
+  const double window_w = rng.uniform(1.2, 1.8), window_h = 1.6,
+               bay = window_w + rng.uniform(0.8, 1.5);
   const cv::Scalar frame(225, 225, 225);
   for (double top = height_m - kStorey; top >= kStorey * 0.9; top -= kStorey) {
     const double b = height_m - top - kStorey;  // Storey's top in plane coordinates.
-    c.Fill(0.0, b + kStorey - 0.25, width_m, 0.25, cv::Scalar(wall[0] * 0.8, wall[1] * 0.8, wall[2] * 0.8));
+    c.Fill(0.0, b + kStorey - 0.25, width_m, 0.25,
+           cv::Scalar(wall[0] * 0.8, wall[1] * 0.8, wall[2] * 0.8));
     for (double a = 0.8; a + window_w < width_m - 0.5; a += bay) {
       const int shade = rng.uniform(60, 130);
       c.Fill(a, b + 0.7, window_w, window_h, cv::Scalar(shade + 30, shade + 10, shade));
@@ -453,14 +460,39 @@ Scene BuildOutdoor(uint32_t seed) {
     float shade;
   };
   const FacadeSpec facades[] = {
-      {"facade_east", -Eigen::Vector3d::UnitX(), {32.0, 20.0, 18.0}, 40.0, 18.0, {80, 90, 150}, 0.9f},
-      {"facade_north", -Eigen::Vector3d::UnitY(), {-25.0, 28.0, 12.0}, 30.0, 12.0, {170, 180, 185}, 0.75f},
-      {"facade_west", Eigen::Vector3d::UnitX(), {-30.0, -12.0, 24.0}, 26.0, 24.0, {150, 190, 210}, 1.0f},
-      {"facade_south", Eigen::Vector3d::UnitY(), {20.0, -26.0, 15.0}, 30.0, 15.0, {120, 140, 160}, 0.85f},
+      {"facade_east",
+       -Eigen::Vector3d::UnitX(),
+       {32.0, 20.0, 18.0},
+       40.0,
+       18.0,
+       {80, 90, 150},
+       0.9f},
+      {"facade_north",
+       -Eigen::Vector3d::UnitY(),
+       {-25.0, 28.0, 12.0},
+       30.0,
+       12.0,
+       {170, 180, 185},
+       0.75f},
+      {"facade_west",
+       Eigen::Vector3d::UnitX(),
+       {-30.0, -12.0, 24.0},
+       26.0,
+       24.0,
+       {150, 190, 210},
+       1.0f},
+      {"facade_south",
+       Eigen::Vector3d::UnitY(),
+       {20.0, -26.0, 15.0},
+       30.0,
+       15.0,
+       {120, 140, 160},
+       0.85f},
   };
   for (const FacadeSpec& f : facades) {
     cv::RNG rng = builder.NextRng();
-    builder.AddVertical(f.name, f.normal, f.top_left, Facade(f.width, f.height, f.colour, rng), f.shade);
+    builder.AddVertical(f.name, f.normal, f.top_left, Facade(f.width, f.height, f.colour, rng),
+                        f.shade);
   }
   return std::move(builder.scene());
 }

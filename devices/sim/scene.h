@@ -19,15 +19,15 @@ namespace autocal {
 // seen from the side its normal points to, where u runs to the right and v down, like an
 // image on a wall; texture columns follow u, rows follow v.
 struct Plane {
-  int id = 0;             // 1..N, the value in plane-label images.
-  std::string name;       // "floor", "wall_north", "box1_top", ...
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // World position of (a, b) = (0, 0).
+  int id = 0;                                         // 1..N, the value in plane-label images.
+  std::string name;                                   // "floor", "wall_north", "box1_top", ...
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();   // World position of (a, b) = (0, 0).
   Eigen::Vector3d axis_u = Eigen::Vector3d::UnitX();  // Unit vector.
   Eigen::Vector3d axis_v = Eigen::Vector3d::UnitY();  // Unit vector, orthogonal to axis_u.
-  double width_m = 1.0;   // Extent along axis_u.
-  double height_m = 1.0;  // Extent along axis_v.
-  int texture = 0;        // Index into Scene::textures.
-  float shade = 1.0f;     // Lighting: factor on the texture's colour.
+  double width_m = 1.0;                               // Extent along axis_u.
+  double height_m = 1.0;                              // Extent along axis_v.
+  int texture = 0;                                    // Index into Scene::textures.
+  float shade = 1.0f;                                 // Lighting: factor on the texture's colour.
 
   // Unit normal toward the side the plane is seen from.
   Eigen::Vector3d normal() const { return axis_v.cross(axis_u); }
@@ -36,7 +36,7 @@ struct Plane {
 
 struct Scene {
   std::string name;
-  std::vector<Plane> planes;      // Plane i has id i + 1.
+  std::vector<Plane> planes;  // Plane i has id i + 1.
   std::vector<Texture> textures;
   cv::Vec3f background{0.f, 0.f, 0.f};  // BGR where no plane is hit (the sky outdoors).
 };

@@ -27,8 +27,9 @@ class SimulatedSequence : public Sequence {
     const AccelerometerOptions& a = scenario.accelerometer;
     session_.camera_device = "autocal simulator (" + scenario.name + ", " + scenario.lens + ")";
     char accel[128];
-    std::snprintf(accel, sizeof(accel), "autocal simulated accelerometer (%.0f Hz, +-%.3g g, %d bit)",
-                  a.rate_hz, a.range_g, a.bits);
+    std::snprintf(accel, sizeof(accel),
+                  "autocal simulated accelerometer (%.0f Hz, +-%.3g g, %d bit)", a.rate_hz,
+                  a.range_g, a.bits);
     session_.accelerometer_device = accel;
     session_.width = scenario.width;
     session_.height = scenario.height;
@@ -89,7 +90,8 @@ class SimulatedSequence : public Sequence {
   // The scene's textures take a moment to build: only when a frame is first asked for,
   // so that sequences used for their accelerometer or ground truth stay cheap.
   const Renderer& renderer() const {
-    std::call_once(renderer_once_, [this] { renderer_ = std::make_unique<Renderer>(BuildScene(scenario_)); });
+    std::call_once(renderer_once_,
+                   [this] { renderer_ = std::make_unique<Renderer>(BuildScene(scenario_)); });
     return *renderer_;
   }
 
@@ -140,7 +142,8 @@ std::string SceneDescriptionYaml(const Scenario& scenario) {
       "normal points to; id is its value in the plane-label images (0: none).");
   out << "scene" << scene->name;
   out << "seed" << static_cast<int>(scenario.seed);
-  out << "planes" << "[";
+  out << "planes"
+      << "[";
   for (const Plane& p : scene->planes) {
     out << "{";
     out << "id" << p.id << "name" << p.name;
@@ -153,7 +156,8 @@ std::string SceneDescriptionYaml(const Scenario& scenario) {
     out << "normal";
     WriteVector(out, p.normal());
     out << "width" << p.width_m << "height" << p.height_m;
-    out << "corners" << "[";
+    out << "corners"
+        << "[";
     for (const Eigen::Vector3d& corner : {p.Point(0, 0), p.Point(p.width_m, 0),
                                           p.Point(p.width_m, p.height_m), p.Point(0, p.height_m)}) {
       WriteVector(out, corner);

@@ -52,7 +52,8 @@ Texture::Texture(const cv::Mat& bgr, double texel_m, bool repeat)
     const cv::Size size(std::max(1, (previous.cols + 1) / 2), std::max(1, (previous.rows + 1) / 2));
     cv::Mat next;
     cv::resize(previous, next, size, 0, 0, cv::INTER_AREA);
-    levels_.push_back({next, size.width / (bgr.cols * texel_m), size.height / (bgr.rows * texel_m)});
+    levels_.push_back(
+        {next, size.width / (bgr.cols * texel_m), size.height / (bgr.rows * texel_m)});
   }
 }
 
@@ -73,8 +74,12 @@ void Texture::Bilinear(const Level& level, double a, double b, float* out) const
     p11 = p10 + 4;
   } else {
     // At the border: wrap round a repeating texture, else extend the border texels.
-    auto col = [&](int i) { return repeat_ ? Wrap(i, image.cols) : std::clamp(i, 0, image.cols - 1); };
-    auto row = [&](int j) { return repeat_ ? Wrap(j, image.rows) : std::clamp(j, 0, image.rows - 1); };
+    auto col = [&](int i) {
+      return repeat_ ? Wrap(i, image.cols) : std::clamp(i, 0, image.cols - 1);
+    };
+    auto row = [&](int j) {
+      return repeat_ ? Wrap(j, image.rows) : std::clamp(j, 0, image.rows - 1);
+    };
     const uchar* row0 = image.ptr<uchar>(row(y0));
     const uchar* row1 = image.ptr<uchar>(row(y0 + 1));
     p00 = row0 + 4 * col(x0);
@@ -105,8 +110,8 @@ void Texture::Trilinear(double lod, double a, double b, float* out) const {
   Bilinear(levels_[level], a, b, fine);
   Bilinear(levels_[level + 1], a, b, coarse);
   const cv::v_float32x4 f = cv::v_load(fine);
-  cv::v_store(out, cv::v_muladd(cv::v_load(coarse) - f,
-                                cv::v_setall_f32(static_cast<float>(blend)), f));
+  cv::v_store(out,
+              cv::v_muladd(cv::v_load(coarse) - f, cv::v_setall_f32(static_cast<float>(blend)), f));
 }
 
 cv::Vec3f Texture::Sample(const Footprint& f) const {

@@ -11,7 +11,7 @@ namespace autocal {
 // Where a pixel (or sub-pixel) lands on a plane: plane coordinates and how they change per
 // pixel step, all in metres.
 struct Footprint {
-  double a = 0.0, b = 0.0;        // Plane coordinates of the ray's hit.
+  double a = 0.0, b = 0.0;          // Plane coordinates of the ray's hit.
   double da_du = 0.0, db_du = 0.0;  // Change per step along the image x axis.
   double da_dv = 0.0, db_dv = 0.0;  // Change per step along the image y axis.
 };

@@ -18,8 +18,12 @@ struct Taylor2 {
   double dd = 0.0;  // Second derivative.
 };
 
-Taylor2 operator+(const Taylor2& a, const Taylor2& b) { return {a.v + b.v, a.d + b.d, a.dd + b.dd}; }
-Taylor2 operator-(const Taylor2& a, const Taylor2& b) { return {a.v - b.v, a.d - b.d, a.dd - b.dd}; }
+Taylor2 operator+(const Taylor2& a, const Taylor2& b) {
+  return {a.v + b.v, a.d + b.d, a.dd + b.dd};
+}
+Taylor2 operator-(const Taylor2& a, const Taylor2& b) {
+  return {a.v - b.v, a.d - b.d, a.dd - b.dd};
+}
 Taylor2 operator+(const Taylor2& a, double b) { return {a.v + b, a.d, a.dd}; }
 Taylor2 operator*(double s, const Taylor2& a) { return {s * a.v, s * a.d, s * a.dd}; }
 Taylor2 operator*(const Taylor2& a, const Taylor2& b) {
@@ -182,8 +186,7 @@ Eigen::Matrix3d Trajectory::WorldFromCamAt(double t_s) const {
   const double pitch =
       Deg(motion_.pitch_deg) +
       Deg(motion_.pitch_swing_deg) * std::sin(2.0 * M_PI * kPitchHz * t_s + kPitchPhase);
-  const double roll =
-      Deg(motion_.roll_deg) * std::sin(M_PI * motion_.step_hz * t_s + kRollPhase);
+  const double roll = Deg(motion_.roll_deg) * std::sin(M_PI * motion_.step_hz * t_s + kRollPhase);
   return WorldFromBody(yaw, pitch, roll) * BodyFromCam();
 }
 
