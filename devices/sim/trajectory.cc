@@ -109,7 +109,7 @@ Trajectory::Trajectory(const MotionOptions& motion, const std::string& scene) : 
   walking_ = true;
   if (scene == "office") {
     // A rounded-rectangle loop round the table, at least a metre from the walls.
-    harmonics_ = {{1, 2.3, 0.0, 0.0, 1.45}, {2, 0.0, 0.0, 0.12, 0.0}, {3, -0.3, 0.0, 0.0, 0.2}};
+    harmonics_ = {{1, 2.7, 0.0, 0.0, 1.75}, {2, 0.0, 0.0, 0.12, 0.0}, {3, -0.3, 0.0, 0.0, 0.2}};
   } else if (scene == "corridor") {
     // Down the corridor and back, turning round near each end; the warp evens out the
     // speed along the straight parts.
