@@ -253,7 +253,6 @@ struct RayTable {
   // Bounds of the rays (sub-pixel rays included) of each tile of kTileWidth pixels.
   int tiles_per_row = 0;
   std::vector<double> tile_xmin, tile_xmax, tile_ymin, tile_ymax;
-  std::unique_ptr<RadialInverse> radial;
 
   explicit RayTable(const CameraIntrinsics& c)
       : intrinsics(c), width(c.width), height(c.height), dist(c.Distortion()) {
@@ -275,19 +274,19 @@ struct RayTable {
         max_rd = std::max(max_rd, std::hypot((u - c.cx) / c.fx, (v - c.cy) / c.fy));
       }
     }
-    radial = std::make_unique<RadialInverse>(dist.data(), 1.01 * max_rd);
-    cv::parallel_for_(cv::Range(0, height), [this](const cv::Range& rows) {
-      for (int v = rows.start; v < rows.end; ++v) BuildRow(v);
+    const RadialInverse radial(dist.data(), 1.01 * max_rd);
+    cv::parallel_for_(cv::Range(0, height), [this, &radial](const cv::Range& rows) {
+      for (int v = rows.start; v < rows.end; ++v) BuildRow(v, radial);
     });
   }
 
-  void BuildRow(int v) {
+  void BuildRow(int v, const RadialInverse& radial) {
     const CameraIntrinsics& c = intrinsics;
     for (int u = 0; u < width; ++u) {
       const size_t i = static_cast<size_t>(v) * width + u;
       const double xd = (u - c.cx) / c.fx, yd = (v - c.cy) / c.fy;
       double rx, ry, inv[4];
-      radial->Guess(xd, yd, &rx, &ry);
+      radial.Guess(xd, yd, &rx, &ry);
       valid[i] = SolveRay(dist.data(), xd, yd, &rx, &ry, inv) ? 1 : 0;
       if (!valid[i]) continue;
       x[i] = rx;

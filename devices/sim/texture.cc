@@ -13,8 +13,10 @@ namespace {
 
 // At most this many trilinear taps along the long axis of a stretched footprint.
 constexpr int kMaxAnisotropy = 4;
-// Trilinear filtering uses one mip level alone when the level of detail is this close to it.
-constexpr double kSnapLod = 0.15;
+// Trilinear filtering blends two mip levels only where the level of detail is more than
+// this from both ("brilinear"): close to a level, that level alone is as good and half the
+// work; the blend weight is stretched over the rest, so it stays continuous.
+constexpr double kPureLevelBand = 0.15;
 
 inline int Wrap(int i, int n) {
   const int m = i % n;
@@ -102,10 +104,9 @@ void Texture::Trilinear(double lod, double a, double b, float* out) const {
   const int last = static_cast<int>(levels_.size()) - 1;
   if (lod >= last) return Bilinear(levels_.back(), a, b, out);
   const int level = static_cast<int>(lod);
-  const double blend = lod - level;
-  // Close to a level, that level alone is as good and half the work.
-  if (blend < kSnapLod) return Bilinear(levels_[level], a, b, out);
-  if (blend > 1.0 - kSnapLod) return Bilinear(levels_[level + 1], a, b, out);
+  const double blend = (lod - level - kPureLevelBand) / (1.0 - 2.0 * kPureLevelBand);
+  if (blend <= 0.0) return Bilinear(levels_[level], a, b, out);
+  if (blend >= 1.0) return Bilinear(levels_[level + 1], a, b, out);
   float fine[4], coarse[4];
   Bilinear(levels_[level], a, b, fine);
   Bilinear(levels_[level + 1], a, b, coarse);
