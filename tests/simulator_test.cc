@@ -209,6 +209,7 @@ TEST(LensTest, TessarIsNearlyDistortionFree) {
   EXPECT_LT(worst, 0.5);
   EXPECT_GT(worst, 0.01);  // Small, not nothing.
   // 75 deg horizontal field of view.
+  EXPECT_EQ(LensFieldOfViewDeg("tessar"), 75.0);
   const auto right = Unproject(k, Eigen::Vector2d(k.cx + 320.0, k.cy));
   EXPECT_NEAR(std::atan(right->x()) * 180.0 / M_PI, 37.5, 1e-6);
 }
@@ -217,6 +218,7 @@ TEST(LensTest, SonnarHasStrongBarrelAndSeesEightyFiveDegrees) {
   const CameraIntrinsics k = LensIntrinsics("sonnar", 640, 480);
   EXPECT_DOUBLE_EQ(k.k1, -0.3);
   EXPECT_DOUBLE_EQ(k.k2, 0.1);
+  EXPECT_EQ(LensFieldOfViewDeg("sonnar"), 85.0);
   const auto right = Unproject(k, Eigen::Vector2d(k.cx + 320.0, k.cy));
   ASSERT_TRUE(right.has_value());
   EXPECT_NEAR(std::atan(right->x()) * 180.0 / M_PI, 42.5, 1e-6);

@@ -44,8 +44,6 @@ class Renderer {
   cv::Mat RenderLabels(const CameraIntrinsics& intrinsics,
                        const Eigen::Isometry3d& world_from_cam) const;
 
-  const Scene& scene() const { return *scene_; }
-
  private:
   // The ray table of `intrinsics`, from the cache or built (rays depend only on the
   // intrinsics, so a cached table is identical to a rebuilt one).

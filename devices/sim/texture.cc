@@ -42,7 +42,7 @@ inline float FastLog2(float x) {
 }  // namespace
 
 Texture::Texture(const cv::Mat& bgr, double texel_m, bool repeat)
-    : texel_m_(texel_m), inv_texel2_(1.0 / (texel_m * texel_m)), repeat_(repeat) {
+    : inv_texel2_(1.0 / (texel_m * texel_m)), repeat_(repeat) {
   CV_Assert(bgr.type() == CV_8UC3 && !bgr.empty() && texel_m > 0.0);
   cv::Mat bgra;
   cv::cvtColor(bgr, bgra, cv::COLOR_BGR2BGRA);

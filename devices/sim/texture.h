@@ -27,8 +27,6 @@ class Texture {
   // Filtered BGR colour (0-255) of the pixel whose footprint is given.
   cv::Vec3f Sample(const Footprint& footprint) const;
 
-  double texel_m() const { return texel_m_; }
-
  private:
   struct Level {
     cv::Mat image;   // CV_8UC4 (BGR and a pad byte: one texel is one 32-bit load).
@@ -41,8 +39,7 @@ class Texture {
   void Trilinear(double lod, double a, double b, float* out) const;
 
   std::vector<Level> levels_;
-  double texel_m_;
-  double inv_texel2_;  // 1 / texel_m^2.
+  double inv_texel2_;  // 1 / texel_m^2 of level 0.
   bool repeat_;
 };
 
