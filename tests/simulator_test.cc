@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "devices/sim/accelerometer.h"
@@ -191,6 +192,29 @@ TEST_F(SimulatorTest, PlaneLabelsAgreeWithGeometry) {
   }
   EXPECT_GT(checked, 200);
   EXPECT_GE(seen.size(), 3u);  // Wall, floor and desk at least.
+}
+
+// Trackers need corners all over the image, not only on posters: the textures must
+// provide them (noise is off, so the corners are the scene's).
+TEST_F(SimulatorTest, OfficeHasCornersEverywhere) {
+  Scenario s = LoadScenario("office");
+  ApplyScenarioOverride(&s, "noise_sigma", "0");
+  const auto sequence = MakeSimulatedSequence(s);
+  for (size_t index : {size_t{0}, size_t{150}, size_t{375}}) {
+    cv::Mat grey;
+    cv::cvtColor(sequence->LoadFrame(index), grey, cv::COLOR_BGR2GRAY);
+    std::vector<cv::KeyPoint> corners;
+    cv::FAST(grey, corners, 20);
+    int cells[4][4] = {};
+    for (const cv::KeyPoint& k : corners) {
+      ++cells[std::min(3, static_cast<int>(4 * k.pt.y / grey.rows))]
+             [std::min(3, static_cast<int>(4 * k.pt.x / grey.cols))];
+    }
+    int rich = 0;
+    for (const auto& row : cells)
+      rich += static_cast<int>(std::count_if(row, row + 4, [](int n) { return n >= 5; }));
+    EXPECT_GE(rich, 15) << "frame " << index;
+  }
 }
 
 // --- Lenses and intrinsics profiles -------------------------------------------------------
