@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <ostream>
 #include <set>
 #include <thread>
 
@@ -68,6 +69,10 @@ struct BoardCase {
   double yaw_deg;
   double pitch_deg;
 };
+
+void PrintTo(const BoardCase& c, std::ostream* out) {
+  *out << c.lens << " at " << c.distance_m << " m, yaw " << c.yaw_deg << ", pitch " << c.pitch_deg;
+}
 
 class CheckerboardTest : public ::testing::TestWithParam<BoardCase> {};
 
