@@ -33,6 +33,8 @@ install_missing() {
 }
 
 build() {
+  # Paths relative to the checkout let ccache reuse objects across clones (CI).
+  export CCACHE_BASEDIR="$here" CCACHE_NOHASHDIR=true
   [[ -f build/CMakeCache.txt ]] || cmake --preset default
   cmake --build --preset default -j "$(nproc)"
 }
