@@ -232,7 +232,7 @@ int Distortion(const QStringList& arguments) {
     options.plumb_line.estimate_k3 = parser.isSet("k3");
     options.plumb_line.estimate_tangential = parser.isSet("tangential");
     options.plumb_line.estimate_centre = parser.isSet("centre");
-    options.pool_size = 100000;
+    options.pool_per_cell = 1000;  // Still images: keep every shape.
     LensStage stage(options);
     ProgressPrinter progress("distortion", "images");
     size_t lines_found = 0, snakes = 0;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 namespace autocal {
 namespace {
@@ -38,8 +39,10 @@ bool LensOptions::Check(std::string* error) const {
     why = "observe_every_frames must be at least 1";
   } else if (!(min_observation_shift_px >= 0)) {
     why = "min_observation_shift_px must not be negative";
-  } else if (pool_size < plumb_line.min_lines) {
-    why = "pool_size must hold at least plumb_line.min_lines shapes";
+  } else if (pool_grid < 1 || pool_grid > 64) {
+    why = "pool_grid must be in [1, 64]";
+  } else if (pool_per_cell < 1) {
+    why = "pool_per_cell must be at least 1";
   } else if (estimate_every_frames < 1) {
     why = "estimate_every_frames must be at least 1";
   }
@@ -57,7 +60,28 @@ void LensStage::set_options(const LensOptions& options) {
   tracker_.set_options(options.snakes);
 }
 
-void LensStage::Pool(const RadonSnake& snake) {
+void LensStage::AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_size) {
+  if (points.size() < 2) return;
+  const Eigen::Vector2d middle = points[points.size() / 2];
+  const Eigen::Vector2d chord = points.back() - points.front();
+  const int orientation =
+      std::clamp(int(4 * std::fmod(std::atan2(chord.y(), chord.x()) + M_PI, M_PI) / M_PI), 0, 3);
+  const int columns = options_.pool_grid;
+  const int rows = std::max(1, int(std::lround(columns * double(image_size.height) / image_size.width)));
+  const int column = std::clamp(int(middle.x() * columns / image_size.width), 0, columns - 1);
+  const int row = std::clamp(int(middle.y() * rows / image_size.height), 0, rows - 1);
+  std::deque<LineObservation>& bin = pool_[(row * columns + column) * 4 + orientation];
+  bin.push_back({std::move(points)});
+  while (int(bin.size()) > options_.pool_per_cell) bin.pop_front();
+}
+
+size_t LensStage::pooled_shapes() const {
+  size_t count = 0;
+  for (const auto& [key, bin] : pool_) count += bin.size();
+  return count;
+}
+
+void LensStage::Pool(const RadonSnake& snake, cv::Size image_size) {
   auto last = std::find_if(last_pooled_.begin(), last_pooled_.end(),
                            [&](const auto& entry) { return entry.first == snake.id; });
   if (last != last_pooled_.end() &&
@@ -69,12 +93,12 @@ void LensStage::Pool(const RadonSnake& snake) {
   } else {
     last->second = Middle(snake);
   }
-  pool_.push_back({snake.vertices});
-  while (int(pool_.size()) > options_.pool_size) pool_.pop_front();
+  AddShape(snake.InnerVertices(), image_size);
 }
 
 PlumbLineResult LensStage::EstimateNow(const CameraIntrinsics& initial) const {
-  const std::vector<LineObservation> shapes(pool_.begin(), pool_.end());
+  std::vector<LineObservation> shapes;
+  for (const auto& [key, bin] : pool_) shapes.insert(shapes.end(), bin.begin(), bin.end());
   return EstimateDistortion(shapes, initial, options_.plumb_line);
 }
 
@@ -94,19 +118,19 @@ LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,
                         [&](const RadonSnake& s) { return s.id == entry.first; });
   });
   for (const RadonSnake& snake : snapshot.snakes) {
-    if (snake.age > 0 && snake.age % options_.observe_every_frames == 0) Pool(snake);
+    if (snake.age > 0 && snake.age % options_.observe_every_frames == 0) Pool(snake, channel.size());
   }
   snapshot.lines_ms = MillisecondsSince(start);
 
   ++frames_;
   if (frames_ % options_.estimate_every_frames == 0 &&
-      int(pool_.size()) >= options_.plumb_line.min_lines) {
+      int(pooled_shapes()) >= options_.plumb_line.min_lines) {
     start = std::chrono::steady_clock::now();
     latest_ = EstimateNow(calibration);
     snapshot.distortion_ms = MillisecondsSince(start);
   }
   snapshot.distortion = latest_;
-  snapshot.pooled_shapes = static_cast<int>(pool_.size());
+  snapshot.pooled_shapes = static_cast<int>(pooled_shapes());
 
   if (rectified) {
     start = std::chrono::steady_clock::now();
@@ -133,9 +157,8 @@ LensSnapshot LensStage::ProcessStill(const cv::Mat& raw, const CameraIntrinsics&
     tracker.Update(gradients, {}, {calibration.cx, calibration.cy}, channel.size());
   }
   snapshot.snakes = tracker.snakes();
-  for (const RadonSnake& snake : snapshot.snakes) pool_.push_back({snake.vertices});
-  while (int(pool_.size()) > options_.pool_size) pool_.pop_front();
-  snapshot.pooled_shapes = static_cast<int>(pool_.size());
+  for (const RadonSnake& snake : snapshot.snakes) AddShape(snake.InnerVertices(), channel.size());
+  snapshot.pooled_shapes = static_cast<int>(pooled_shapes());
   snapshot.lines_ms = MillisecondsSince(start);
   return snapshot;
 }

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,7 +26,11 @@ struct LensOptions {
   RectifyOptions rectify;
   int observe_every_frames = 3;           // A snake's shape joins the pool this often...
   double min_observation_shift_px = 4.0;  // ...if it moved this much since its last one.
-  int pool_size = 400;                    // Shapes kept; the oldest go first.
+  // Shapes are kept per cell of a grid over the image and per orientation (4 bins), the
+  // newest `pool_per_cell` in each, so the corners, where distortion shows most, are not
+  // crowded out by the many shapes near the centre.
+  int pool_grid = 8;                      // Cells across the image (rows by aspect).
+  int pool_per_cell = 8;                  // Newest shapes kept per cell and orientation.
   int estimate_every_frames = 30;         // Distortion re-estimated this often (frames).
 
   // Checks this struct and every nested one; the message names the field.
@@ -64,15 +69,16 @@ class LensStage {
 
   void set_options(const LensOptions& options);
   const LensOptions& options() const { return options_; }
-  size_t pooled_shapes() const { return pool_.size(); }
+  size_t pooled_shapes() const;
 
  private:
-  void Pool(const RadonSnake& snake);
+  void Pool(const RadonSnake& snake, cv::Size image_size);
+  void AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_size);
 
   LensOptions options_;
   Rectifier rectifier_;
   SnakeTracker tracker_;
-  std::deque<LineObservation> pool_;
+  std::map<int, std::deque<LineObservation>> pool_;  // By cell and orientation bin.
   // Where each snake's last pooled shape was (by snake id), to pool only new views.
   std::vector<std::pair<int, Eigen::Vector2d>> last_pooled_;
   std::optional<PlumbLineResult> latest_;

@@ -221,20 +221,18 @@ CameraIntrinsics ScaleDistortionToFocal(const CameraIntrinsics& camera, double f
   return scaled;
 }
 
-double MaxUndistortionDifference(const CameraIntrinsics& a, const CameraIntrinsics& b,
-                                 double radius_fraction, int grid_step_px) {
-  const Eigen::Vector2d centre(0.5 * (a.width - 1), 0.5 * (a.height - 1));
-  const double radius = radius_fraction * 0.5 * std::hypot(a.width, a.height);
+double MaxDistortionDifference(const CameraIntrinsics& lens, const CameraIntrinsics& reference,
+                               double radius_fraction, int grid_step_px) {
+  const Eigen::Vector2d centre(0.5 * (reference.width - 1), 0.5 * (reference.height - 1));
+  const double radius = radius_fraction * 0.5 * std::hypot(reference.width, reference.height);
   double worst = 0.0;
-  for (int y = 0; y < a.height; y += grid_step_px) {
-    for (int x = 0; x < a.width; x += grid_step_px) {
+  for (int y = 0; y < reference.height; y += grid_step_px) {
+    for (int x = 0; x < reference.width; x += grid_step_px) {
       const Eigen::Vector2d pixel(x, y);
       if ((pixel - centre).norm() > radius) continue;
-      const auto ray_a = Unproject(a, pixel), ray_b = Unproject(b, pixel);
-      if (!ray_a || !ray_b) return std::numeric_limits<double>::infinity();
-      const Eigen::Vector2d ideal_a(a.fx * ray_a->x() + a.cx, a.fy * ray_a->y() + a.cy);
-      const Eigen::Vector2d ideal_b(b.fx * ray_b->x() + b.cx, b.fy * ray_b->y() + b.cy);
-      worst = std::max(worst, (ideal_a - ideal_b).norm());
+      const auto ray = Unproject(reference, pixel);
+      if (!ray) return std::numeric_limits<double>::infinity();
+      worst = std::max(worst, (Project(lens, {ray->x(), ray->y(), 1.0}) - pixel).norm());
     }
   }
   return worst;

@@ -58,9 +58,11 @@ PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& lines,
 // with powers of f_new / f_old, tangential ones linearly.
 CameraIntrinsics ScaleDistortionToFocal(const CameraIntrinsics& camera, double fx, double fy);
 
-// Largest displacement, over all pixels within `radius_fraction` of the half-diagonal
-// from the image centre, between where two lenses put the undistorted point (px).
-double MaxUndistortionDifference(const CameraIntrinsics& a, const CameraIntrinsics& b,
-                                 double radius_fraction, int grid_step_px = 8);
+// How far apart two lenses put the same ray in the image, at worst (px): for every pixel
+// p within `radius_fraction` of the half-diagonal from the image centre, the ray lens
+// `reference` sees at p is projected through `lens`, and its distance to p taken. With
+// equal pinhole parameters this compares the distortions where they are observed.
+double MaxDistortionDifference(const CameraIntrinsics& lens, const CameraIntrinsics& reference,
+                               double radius_fraction, int grid_step_px = 8);
 
 }  // namespace autocal

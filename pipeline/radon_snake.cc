@@ -15,8 +15,8 @@ bool SnakeOptions::Check(std::string* error) const {
     why << "search_px must be positive and below spacing_px";
   } else if (!(min_edge_strength > 0)) {
     why << "min_edge_strength must be positive";
-  } else if (!(max_bend_deg > 0 && max_bend_deg < 90)) {
-    why << "max_bend_deg must be in (0, 90)";
+  } else if (!(max_bend_change_deg > 0 && max_bend_change_deg < 90)) {
+    why << "max_bend_change_deg must be in (0, 90)";
   } else if (!(min_length_px >= 2 * spacing_px)) {
     why << "min_length_px must be at least two spacings";
   } else if (max_grow_per_frame < 0) {
@@ -33,14 +33,27 @@ bool SnakeOptions::Check(std::string* error) const {
   return false;
 }
 
+namespace {
+
+// Signed turn at b on the way a -> b -> c, degrees.
+double Bend(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {
+  const Eigen::Vector2d ab = b - a, bc = c - b;
+  return std::atan2(ab.x() * bc.y() - ab.y() * bc.x(), ab.dot(bc)) * 180.0 / M_PI;
+}
+
+}  // namespace
+
 std::vector<double> RadonSnake::BendAngles() const {
   std::vector<double> bends;
   for (size_t i = 1; i + 1 < vertices.size(); ++i) {
-    const Eigen::Vector2d a = vertices[i] - vertices[i - 1];
-    const Eigen::Vector2d b = vertices[i + 1] - vertices[i];
-    bends.push_back(std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)) * 180.0 / M_PI);
+    bends.push_back(Bend(vertices[i - 1], vertices[i], vertices[i + 1]));
   }
   return bends;
+}
+
+std::vector<Eigen::Vector2d> RadonSnake::InnerVertices() const {
+  if (vertices.size() < 3) return {};
+  return std::vector<Eigen::Vector2d>(vertices.begin() + 1, vertices.end() - 1);
 }
 
 double RadonSnake::Length() const {
@@ -90,6 +103,21 @@ std::vector<Eigen::Vector2d> Resample(const std::vector<Eigen::Vector2d>& polyli
   return points;
 }
 
+// Finds the snake's edge near `point` along `normal`. An edge whose gradient does not
+// point along the normal runs across the snake (a corner, a T-junction, an occluding
+// outline) and is not the snake's edge, even where it is the strongest one found.
+bool LockOne(const Gradients& gradients, const Eigen::Vector2d& point,
+             const Eigen::Vector2d& normal, double search, double min_strength, int polarity,
+             Eigen::Vector2d* edge) {
+  constexpr double kMaxAcross = 0.36;  // tan(20 deg)
+  if (!LocateEdgeAlongNormal(gradients, point, normal, search, min_strength, edge, polarity)) {
+    return false;
+  }
+  const Eigen::Vector2d tangent(normal.y(), -normal.x());
+  return std::abs(gradients.Directional(*edge, tangent)) <=
+         kMaxAcross * std::abs(gradients.Directional(*edge, normal));
+}
+
 // Moves every vertex onto the edge along its normal; returns which ones locked.
 std::vector<bool> Lock(std::vector<Eigen::Vector2d>* vertices, const Gradients& gradients,
                        double search, double min_strength, int polarity) {
@@ -98,11 +126,66 @@ std::vector<bool> Lock(std::vector<Eigen::Vector2d>* vertices, const Gradients& 
   std::vector<bool> locked(v.size(), false);
   for (size_t i = 0; i < v.size(); ++i) {
     const Eigen::Vector2d normal = LeftNormal(Tangent(v, i));
-    locked[i] = LocateEdgeAlongNormal(gradients, v[i], normal, search, min_strength, &moved[i],
-                                      polarity);
+    locked[i] = LockOne(gradients, v[i], normal, search, min_strength, polarity, &moved[i]);
   }
   v = moved;
   return locked;
+}
+
+// The median of the bends at the inner vertices [begin, end) of a polyline, skipping
+// `skip`; 0 when there are none.
+double MedianBend(const std::vector<Eigen::Vector2d>& v, size_t begin, size_t end,
+                  size_t skip = 0) {
+  std::vector<double> bends;
+  for (size_t i = std::max<size_t>(begin, 1); i < std::min(end, v.size() - 1); ++i) {
+    if (i != skip) bends.push_back(Bend(v[i - 1], v[i], v[i + 1]));
+  }
+  if (bends.empty()) return 0.0;
+  std::nth_element(bends.begin(), bends.begin() + bends.size() / 2, bends.end());
+  return bends[bends.size() / 2];
+}
+
+// How many neighbours on each side a hinge's bend is compared with: the lens bends a line
+// more toward the border, so only nearby bends are a fair reference.
+constexpr size_t kBendNeighbours = 3;
+
+// The lens bends a world line smoothly, so a hinge bends about as much as its
+// neighbours; a hinge that jumped to another edge, or an end that turned a corner onto
+// another line, bends unlike them. Cuts the polyline at such hinges and keeps its longest
+// run (with the matching entries of `locked`).
+void KeepLongestSmoothRun(std::vector<Eigen::Vector2d>* vertices, std::vector<bool>* locked,
+                          double max_bend_change_deg) {
+  std::vector<Eigen::Vector2d>& v = *vertices;
+  std::vector<bool> kinked(v.size(), false);
+  while (true) {
+    double worst = max_bend_change_deg;
+    size_t worst_index = 0;
+    for (size_t i = 1; i + 1 < v.size(); ++i) {
+      if (kinked[i]) continue;
+      const size_t from = i > kBendNeighbours ? i - kBendNeighbours : 1;
+      const double typical = MedianBend(v, from, i + kBendNeighbours + 1, i);
+      const double change = std::abs(Bend(v[i - 1], v[i], v[i + 1]) - typical);
+      if (change > worst) {
+        worst = change;
+        worst_index = i;
+      }
+    }
+    if (worst_index == 0) break;
+    kinked[worst_index] = true;
+    // Straighten it so that its neighbours' bends are judged on their own.
+    v[worst_index] = 0.5 * (v[worst_index - 1] + v[worst_index + 1]);
+  }
+  size_t run_begin = 0, best_begin = 0, best_end = 0;
+  for (size_t i = 0; i <= v.size(); ++i) {
+    if (i < v.size() && !kinked[i]) continue;
+    if (i - run_begin > best_end - best_begin) {
+      best_begin = run_begin;
+      best_end = i;
+    }
+    run_begin = i + 1;
+  }
+  v = std::vector<Eigen::Vector2d>(v.begin() + best_begin, v.begin() + best_end);
+  *locked = std::vector<bool>(locked->begin() + best_begin, locked->begin() + best_end);
 }
 
 // Sign of the edge across the polyline's left normal, by majority of its vertices.
@@ -140,24 +223,7 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
     locked[i] = locked[i] && Inside(v[i], size, options.border_margin_px);
   }
 
-  // Hinges that jumped to another edge bend sharply: unlock the worst one at a time.
-  for (size_t attempt = 0; attempt < v.size(); ++attempt) {
-    double worst = options.max_bend_deg;
-    size_t worst_index = 0;
-    for (size_t i = 1; i + 1 < v.size(); ++i) {
-      if (!locked[i]) continue;
-      const Eigen::Vector2d a = v[i] - v[i - 1], b = v[i + 1] - v[i];
-      const double bend = std::abs(std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b))) * 180 / M_PI;
-      if (bend > worst) {
-        worst = bend;
-        worst_index = i;
-      }
-    }
-    if (worst_index == 0) break;
-    locked[worst_index] = false;
-    // Put it between its neighbours so the next bend check sees the others fairly.
-    v[worst_index] = 0.5 * (v[worst_index - 1] + v[worst_index + 1]);
-  }
+  KeepLongestSmoothRun(&v, &locked, options.max_bend_change_deg);
 
   // Trim unlocked ends; a snake with too many lost hinges inside is gone.
   size_t first = 0, last = v.size();
@@ -184,11 +250,15 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
       Eigen::Vector2d candidate = v.back() + options.spacing_px * tangent;
       if (!Inside(candidate, size, options.border_margin_px)) break;
       const int polarity = end == 1 ? -snake->polarity : snake->polarity;
-      if (!LocateEdgeAlongNormal(gradients, candidate, LeftNormal(tangent), 0.25 * options.spacing_px,
-                                 options.min_edge_strength, &candidate, polarity) ||
+      if (!LockOne(gradients, candidate, LeftNormal(tangent), 0.25 * options.spacing_px,
+                   options.min_edge_strength, polarity, &candidate) ||
           !Inside(candidate, size, options.border_margin_px)) {
         break;
       }
+      // Growing round a corner onto another line is not following the edge.
+      const double bend = Bend(v[v.size() - 2], v.back(), candidate);
+      const size_t from = v.size() > kBendNeighbours + 1 ? v.size() - kBendNeighbours - 1 : 1;
+      if (std::abs(bend - MedianBend(v, from, v.size())) > options.max_bend_change_deg) break;
       v.push_back(candidate);
     }
     if (end == 1) std::reverse(v.begin(), v.end());
@@ -204,6 +274,9 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
   for (size_t i = 0; i < v.size(); ++i) {
     if (on_edge[i] && Inside(relocked[i], size, options.border_margin_px)) v[i] = relocked[i];
   }
+  std::vector<bool> all_locked(v.size(), true);
+  KeepLongestSmoothRun(&v, &all_locked, options.max_bend_change_deg);
+  if (v.size() < 3) return false;
   ++snake->age;
   return snake->Length() >= options.min_length_px;
 }

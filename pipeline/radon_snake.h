@@ -18,7 +18,9 @@ struct SnakeOptions {
   double spacing_px = 12.0;          // Length of one edge between hinges.
   double search_px = 8.0;            // How far a snake may move along its normals per frame.
   double min_edge_strength = 3.0;    // Weakest edge a hinge locks on, grey levels per px.
-  double max_bend_deg = 8.0;         // A sharper hinge has jumped to another edge.
+  // A hinge bending this much more or less than the snake's median bend has jumped to
+  // another edge or turned a corner (lens bends change slowly along a line).
+  double max_bend_change_deg = 2.5;
   double min_length_px = 60.0;       // Snakes shorter than this are seeded neither kept.
   int max_grow_per_frame = 4;        // Hinges added at each end per frame, at most.
   double border_margin_px = 2.0;     // Hinges stay this far inside the image.
@@ -32,13 +34,18 @@ struct SnakeOptions {
 
 struct RadonSnake {
   int id = 0;
-  std::vector<Eigen::Vector2d> vertices;  // Hinges in pixels, ordered along the edge.
+  // Hinges in pixels, ordered along the edge. The two end hinges are where the snake
+  // probes for more of its edge (they may sit on a junction); the inner ones are
+  // confirmed, and only they are measurements.
+  std::vector<Eigen::Vector2d> vertices;
   int polarity = 0;                       // Sign of the edge across the snake's left normal.
   int age = 0;                            // Frames tracked.
 
   // Bend at each inner vertex, degrees (vertices.size() - 2 values; signed).
   std::vector<double> BendAngles() const;
   double Length() const;
+  // The confirmed hinges: all but the two ends.
+  std::vector<Eigen::Vector2d> InnerVertices() const;
 };
 
 // Tracks snakes from frame to frame. Not thread-safe; one per video stream.
