@@ -134,7 +134,7 @@ LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,
 
   if (rectified) {
     start = std::chrono::steady_clock::now();
-    *rectified = rectifier_.Undistort(channel, calibration);
+    *rectified = rectifier_.Undistort(rectifier_.Equalize(channel), calibration);
     snapshot.rectify_ms = MillisecondsSince(start);
   }
   return snapshot;

@@ -38,18 +38,22 @@ cv::Mat Rectifier::Channel(const cv::Mat& raw) const {
   } else {
     cv::cvtColor(raw, gray, cv::COLOR_BGR2GRAY);
   }
+  return gray;
+}
+
+cv::Mat Rectifier::Equalize(const cv::Mat& channel) const {
   cv::Mat equalized;
   switch (options_.equalization) {
     case Equalization::kNone:
-      return gray;
+      return channel;
     case Equalization::kGlobal:
-      cv::equalizeHist(gray, equalized);
+      cv::equalizeHist(channel, equalized);
       return equalized;
     case Equalization::kLocal:
-      clahe_->apply(gray, equalized);
+      clahe_->apply(channel, equalized);
       return equalized;
   }
-  return gray;
+  return channel;
 }
 
 void Rectifier::UpdateMaps(const CameraIntrinsics& camera) {
@@ -64,16 +68,16 @@ void Rectifier::UpdateMaps(const CameraIntrinsics& camera) {
   ++map_builds_;
 }
 
-cv::Mat Rectifier::Undistort(const cv::Mat& raw, const CameraIntrinsics& camera) {
-  if (!options_.undistort) return raw;
+cv::Mat Rectifier::Undistort(const cv::Mat& image, const CameraIntrinsics& camera) {
+  if (!options_.undistort) return image;
   UpdateMaps(camera);
   cv::Mat undistorted;
-  cv::remap(raw, undistorted, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+  cv::remap(image, undistorted, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
   return undistorted;
 }
 
 cv::Mat Rectifier::Geometry(const cv::Mat& raw, const CameraIntrinsics& camera) {
-  return Undistort(Channel(raw), camera);
+  return Undistort(Equalize(Channel(raw)), camera);
 }
 
 }  // namespace autocal

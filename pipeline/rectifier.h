@@ -34,13 +34,17 @@ class Rectifier {
  public:
   explicit Rectifier(const RectifyOptions& options = {});
 
-  // 8-bit single-channel geometry image of a raw BGR (or grey) frame: the channel the
-  // options ask for, equalized, and undistorted with `camera` (same K, no distortion).
+  // 8-bit single-channel image of a raw BGR (or grey) frame for features and flow: the
+  // channel the options ask for, equalized, undistorted with `camera` (same K, no
+  // distortion).
   cv::Mat Geometry(const cv::Mat& raw, const CameraIntrinsics& camera);
-  // The colour frame undistorted, for display.
-  cv::Mat Undistort(const cv::Mat& raw, const CameraIntrinsics& camera);
-  // The channel and equalization steps alone, for boxes that work on the raw geometry.
+  // Undistorts any image of the camera's size (colour for display, or a channel).
+  cv::Mat Undistort(const cv::Mat& image, const CameraIntrinsics& camera);
+  // The channel alone: where edges are measured to sub-pixel accuracy (boxes 1-2). Not
+  // equalized: a grey-level map that varies over the image moves edges.
   cv::Mat Channel(const cv::Mat& raw) const;
+  // The equalization the options ask for, on a channel.
+  cv::Mat Equalize(const cv::Mat& channel) const;
 
   void set_options(const RectifyOptions& options);
   // How often the undistortion maps were built (for tests and timing).

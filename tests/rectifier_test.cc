@@ -86,7 +86,7 @@ TEST(Rectifier, GlobalEqualizationIsEquationOne) {
   RectifyOptions options;
   options.undistort = false;
   options.equalization = Equalization::kGlobal;
-  const cv::Mat equalized = Rectifier(options).Channel(image);
+  const cv::Mat equalized = Rectifier(options).Equalize(image);
   for (int i = 0; i < 8; ++i) EXPECT_EQ(equalized.at<uint8_t>(i / 4, i % 4), expected[i]) << i;
 }
 
@@ -110,13 +110,13 @@ TEST(Rectifier, LocalEqualizationFlattensVignetting) {
   };
   RectifyOptions options;
   options.undistort = false;
-  const cv::Mat flattened = Rectifier(options).Channel(vignetted);
+  const cv::Mat flattened = Rectifier(options).Equalize(vignetted);
   // Per-tile equalization with a contrast limit lifts the dark corners part of the way.
   EXPECT_LT(corner_to_centre(vignetted), 0.42);
   EXPECT_GT(corner_to_centre(flattened), 1.25 * corner_to_centre(vignetted));
   RectifyOptions global = options;
   global.equalization = Equalization::kGlobal;
-  EXPECT_LT(corner_to_centre(Rectifier(global).Channel(vignetted)), corner_to_centre(flattened))
+  EXPECT_LT(corner_to_centre(Rectifier(global).Equalize(vignetted)), corner_to_centre(flattened))
       << "one grey-level map for the whole image cannot undo a spatial falloff";
 }
 

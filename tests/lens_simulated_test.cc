@@ -1,0 +1,125 @@
+// Boxes 1-3 on simulated office walks, measured against the simulator's ground truth.
+#include <cmath>
+#include <cstdio>
+#include <future>
+
+#include <gtest/gtest.h>
+
+#include "devices/sim/simulator.h"
+#include "pipeline/lens_stage.h"
+
+namespace autocal {
+namespace {
+
+struct LensRun {
+  CameraIntrinsics truth;
+  PlumbLineResult estimate;
+  // Distances (px, in the image) of confirmed snake hinges to the true curve of their
+  // world line, and of the probing end hinges.
+  double worst_vertex_px = 0.0;
+  int vertices_near_border = 0;  // Confirmed hinges within 10% of the image border.
+  double worst_near_border_px = 0.0;
+  double worst_end_px = 0.0;
+  int snakes_checked = 0;
+  int snakes_off_lines = 0;      // Following edges that are curved in the world.
+};
+
+bool NearBorder(const Eigen::Vector2d& p, const CameraIntrinsics& c) {
+  return p.x() < 0.1 * c.width || p.x() > 0.9 * c.width || p.y() < 0.1 * c.height ||
+         p.y() > 0.9 * c.height;
+}
+
+// Walks `seconds` of the office with `lens`, starting from the true focal length and
+// principal point but no distortion at all.
+LensRun RunOffice(const std::string& lens, double seconds) {
+  Scenario scenario = LoadScenario("office");
+  ApplyScenarioOverride(&scenario, "lens", lens);
+  ApplyScenarioOverride(&scenario, "seconds", std::to_string(seconds));
+  ApplyScenarioOverride(&scenario, "resolution", "640x480");
+  const auto sequence = MakeSimulatedSequence(scenario);
+  LensRun run;
+  run.truth = sequence->ground_truth()->front().intrinsics;
+  CameraIntrinsics start = run.truth;
+  start.k1 = start.k2 = start.p1 = start.p2 = start.k3 = 0.0;
+
+  LensOptions options;
+  options.estimate_every_frames = 1 << 30;  // One estimate, at the end.
+  LensStage stage(options);
+  // Render the next frame on the other core while this one is processed.
+  std::future<cv::Mat> next = std::async(std::launch::async, [&] { return sequence->LoadFrame(0); });
+  for (size_t i = 0; i < sequence->frame_count(); ++i) {
+    const cv::Mat frame = next.get();
+    if (i + 1 < sequence->frame_count()) {
+      next = std::async(std::launch::async, [&, i] { return sequence->LoadFrame(i + 1); });
+    }
+    const LensSnapshot snapshot = stage.Process(sequence->frame_time_ns(i), frame, start);
+    // A snake on a straight world line is straight once the true distortion is removed:
+    // its world line is the line through its truly undistorted hinges, and the true curve
+    // is that line seen through the true lens.
+    const CameraIntrinsics& truth = (*sequence->ground_truth())[i].intrinsics;
+    for (const RadonSnake& snake : snapshot.snakes) {
+      if (snake.age < 3) continue;
+      std::vector<Eigen::Vector2d> ideal;
+      for (const Eigen::Vector2d& v : snake.vertices) ideal.push_back(*Unproject(truth, v));
+      const LineFit fit = FitLine(ideal);
+      if (truth.fx * fit.rms > 1.0) {
+        ++run.snakes_off_lines;
+        continue;
+      }
+      ++run.snakes_checked;
+      const Eigen::Vector2d normal(std::cos(fit.theta), std::sin(fit.theta));
+      for (size_t k = 0; k < snake.vertices.size(); ++k) {
+        const Eigen::Vector2d foot = ideal[k] - (normal.dot(ideal[k]) - fit.rho) * normal;
+        const double d = (Project(truth, {foot.x(), foot.y(), 1.0}) - snake.vertices[k]).norm();
+        if (k == 0 || k + 1 == snake.vertices.size()) {
+          run.worst_end_px = std::max(run.worst_end_px, d);
+          continue;
+        }
+        run.worst_vertex_px = std::max(run.worst_vertex_px, d);
+        if (NearBorder(snake.vertices[k], truth)) {
+          ++run.vertices_near_border;
+          run.worst_near_border_px = std::max(run.worst_near_border_px, d);
+        }
+      }
+    }
+  }
+  run.estimate = stage.EstimateNow(start);
+  std::printf("%s: %s\n  snakes on world lines %d (worst confirmed hinge %.3f px; %d within 10%% "
+              "of the border, worst %.3f px; worst probing end %.3f px), on curved edges %d\n",
+              lens.c_str(), run.estimate.message.c_str(), run.snakes_checked, run.worst_vertex_px,
+              run.vertices_near_border, run.worst_near_border_px, run.worst_end_px,
+              run.snakes_off_lines);
+  return run;
+}
+
+TEST(LensSimulated, SonnarDistortionFromTenSecondsOfOffice) {
+  const LensRun run = RunOffice("sonnar", 10.0);
+  ASSERT_TRUE(run.estimate.usable) << run.estimate.message;
+  const double error = MaxDistortionDifference(run.estimate.estimate, run.truth, 0.9);
+  std::printf("sonnar: worst displacement error %.3f px out to 90%% of the half-diagonal\n", error);
+  EXPECT_LT(error, 0.5) << "px: estimated vs true distortion out to 90% of the half-diagonal";
+  EXPECT_LT(run.estimate.rms_after_px, 0.2) << "straightness residual after correction, px RMS";
+  EXPECT_GT(run.estimate.rms_before_px, 0.5) << "the lens must bend the snakes to begin with";
+  // The snakes themselves: on the true curve of their world line, out to the border.
+  EXPECT_GT(run.snakes_checked, 1000);
+  EXPECT_LT(run.snakes_off_lines, run.snakes_checked / 20) << "snakes off any world line";
+  EXPECT_LT(run.worst_vertex_px, 0.5);
+  EXPECT_GT(run.vertices_near_border, 1000);
+  EXPECT_LT(run.worst_near_border_px, 0.5);
+  EXPECT_LT(run.worst_end_px, 1.0) << "even the probing ends stay near their line";
+}
+
+TEST(LensSimulated, TessarShowsNoSpuriousDistortion) {
+  const LensRun run = RunOffice("tessar", 10.0);
+  ASSERT_TRUE(run.estimate.usable) << run.estimate.message;
+  CameraIntrinsics undistorted = run.truth;
+  undistorted.k1 = undistorted.k2 = undistorted.p1 = undistorted.p2 = undistorted.k3 = 0.0;
+  EXPECT_LT(MaxDistortionDifference(run.estimate.estimate, undistorted, 0.9), 0.5)
+      << "px against no distortion at all";
+  EXPECT_LT(MaxDistortionDifference(run.estimate.estimate, run.truth, 0.9), 0.5)
+      << "px against the true (tiny) distortion";
+  EXPECT_LT(run.estimate.rms_after_px, 0.2);
+}
+
+}  // namespace
+}  // namespace autocal
