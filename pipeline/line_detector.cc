@@ -60,6 +60,10 @@ float Bilinear(const cv::Mat& image, double x, double y) {
 
 }  // namespace
 
+Eigen::Vector2d Gradients::At(int x, int y) const {
+  return {gx_.at<float>(y, x), gy_.at<float>(y, x)};
+}
+
 double Gradients::Directional(const Eigen::Vector2d& p, const Eigen::Vector2d& d) const {
   return d.x() * Bilinear(gx_, p.x(), p.y()) + d.y() * Bilinear(gy_, p.x(), p.y());
 }
@@ -116,28 +120,57 @@ LineFit FitLine(const std::vector<Eigen::Vector2d>& points) {
 
 namespace {
 
-// Sub-pixel edge points along the infinite line (rho, theta), ordered along it, each
-// with its position along the line. Pixels already claimed by a segment are skipped.
-struct EdgePoint {
+// Peaks this close to a found segment's line are that line again.
+constexpr double kSameLineRadians = 2.0 * M_PI / 180.0;
+constexpr double kSameLinePx = 3.0;
+
+// Angle and offset between two (rho, theta) lines, allowing for the wrap
+// (rho, theta) == (-rho, theta + pi).
+std::pair<double, double> LineDistance(double rho_a, double theta_a, double rho_b,
+                                       double theta_b) {
+  double dtheta = std::abs(std::remainder(theta_a - theta_b, 2 * M_PI));
+  double drho = std::abs(rho_a - rho_b);
+  if (dtheta > M_PI / 2) {
+    dtheta = std::abs(std::remainder(theta_a - theta_b + M_PI, 2 * M_PI));
+    drho = std::abs(rho_a + rho_b);
+  }
+  return {dtheta, drho};
+}
+
+// An edge pixel near a line, and its position along the line.
+struct EdgePixel {
   double s;
-  Eigen::Vector2d point;
-  Eigen::Vector2i pixel;
+  int x, y;
 };
 
-// `visits` (CV_32S) marks pixels already looked at in this call with `stamp`.
-std::vector<EdgePoint> CollectEdgePoints(const cv::Mat& edges, const cv::Mat& claimed,
+// Edge pixels within the inlier distance of the infinite line (rho, theta) whose gradient
+// runs along the line's normal, ordered along the line. Integer work only: this runs for
+// every Radon peak. Skips pixels already claimed by a segment; `visits` (CV_32S) marks
+// pixels looked at in this call with `stamp`.
+std::vector<EdgePixel> CollectEdgePixels(const cv::Mat& edges, const cv::Mat& claimed,
                                          const Gradients& gradients, double rho, double theta,
                                          const LineDetectorOptions& options, cv::Mat& visits,
-                                         int stamp) {
+                                         int stamp, double s_from = -1e9, double s_to = 1e9) {
   const Eigen::Vector2d normal(std::cos(theta), std::sin(theta));
   const Eigen::Vector2d direction(-normal.y(), normal.x());
   const Eigen::Vector2d foot = rho * normal;
-  // Parameter range of the line inside the image.
-  const double reach = std::hypot(edges.cols, edges.rows);
   const double cos_limit = std::cos(options.max_normal_angle_deg * M_PI / 180.0);
   const int band = static_cast<int>(std::ceil(options.inlier_distance_px));
-  std::vector<EdgePoint> points;
-  for (double s = -reach; s <= reach; s += 1.0) {
+  // The stretch of the line (widened by the band) that crosses the image, within
+  // [s_from, s_to].
+  double s_min = std::max(s_from, -std::hypot(edges.cols, edges.rows));
+  double s_max = std::min(s_to, std::hypot(edges.cols, edges.rows));
+  const double low[2] = {-band - 1.0, -band - 1.0};
+  const double high[2] = {edges.cols + band + 1.0, edges.rows + band + 1.0};
+  for (int axis = 0; axis < 2; ++axis) {
+    if (std::abs(direction[axis]) < 1e-12) continue;
+    const double a = (low[axis] - foot[axis]) / direction[axis];
+    const double b = (high[axis] - foot[axis]) / direction[axis];
+    s_min = std::max(s_min, std::min(a, b));
+    s_max = std::min(s_max, std::max(a, b));
+  }
+  std::vector<EdgePixel> pixels;
+  for (double s = s_min; s <= s_max; s += 1.0) {
     const Eigen::Vector2d on_line = foot + s * direction;
     for (int k = -band; k <= band; ++k) {
       const Eigen::Vector2d q = on_line + k * normal;
@@ -150,19 +183,15 @@ std::vector<EdgePoint> CollectEdgePoints(const cv::Mat& edges, const cv::Mat& cl
       const Eigen::Vector2d pixel(x, y);
       if (std::abs(normal.dot(pixel) - rho) > options.inlier_distance_px) continue;
       // The edge must run along the line: its gradient close to the line's normal.
-      const double along_normal = gradients.Directional(pixel, normal);
-      const double along_line = gradients.Directional(pixel, direction);
-      const double magnitude = std::hypot(along_normal, along_line);
-      if (magnitude <= 0 || std::abs(along_normal) / magnitude < cos_limit) continue;
-      Eigen::Vector2d edge;
-      if (!LocateEdgeAlongNormal(gradients, pixel, normal, 1.5, 1.0, &edge)) continue;
-      if (std::abs(normal.dot(edge) - rho) > options.inlier_distance_px) continue;
-      points.push_back({direction.dot(edge), edge, {x, y}});
+      const Eigen::Vector2d gradient = gradients.At(x, y);
+      const double magnitude = gradient.norm();
+      if (magnitude <= 0 || std::abs(gradient.dot(normal)) < cos_limit * magnitude) continue;
+      pixels.push_back({direction.dot(pixel), x, y});
     }
   }
-  std::sort(points.begin(), points.end(),
-            [](const EdgePoint& a, const EdgePoint& b) { return a.s < b.s; });
-  return points;
+  std::sort(pixels.begin(), pixels.end(),
+            [](const EdgePixel& a, const EdgePixel& b) { return a.s < b.s; });
+  return pixels;
 }
 
 }  // namespace
@@ -186,7 +215,7 @@ std::vector<LineSegment> DetectLines(const Gradients& gradients,
   std::sort(peaks.begin(), peaks.end(),
             [](const cv::Vec3f& a, const cv::Vec3f& b) { return a[2] > b[2]; });
   // Weak peaks past a few per wanted line are clutter (texture, noise): not worth a look.
-  peaks.resize(std::min<size_t>(peaks.size(), 4 * options.max_lines));
+  peaks.resize(std::min<size_t>(peaks.size(), 2 * options.max_lines));
 
   std::vector<LineSegment> segments;
   cv::Mat claimed = cv::Mat::zeros(edges.size(), CV_8U);
@@ -195,47 +224,65 @@ std::vector<LineSegment> DetectLines(const Gradients& gradients,
   for (const cv::Vec3f& peak : peaks) {
     if (int(segments.size()) >= options.max_lines) break;
     double rho = peak[0], theta = peak[1];
-    // Refine the peak on sub-pixel edge points: the Radon bins quantize it.
-    std::vector<EdgePoint> points;
-    for (int iteration = 0; iteration < 2; ++iteration) {
-      points = CollectEdgePoints(edges, claimed, gradients, rho, theta, options, visits, ++stamp);
-      if (int(points.size()) < min_votes) break;
-      std::vector<Eigen::Vector2d> xy;
-      xy.reserve(points.size());
-      for (const auto& p : points) xy.push_back(p.point);
-      const LineFit fit = FitLine(xy);
-      rho = fit.rho;
-      theta = fit.theta;
-    }
-    if (int(points.size()) < min_votes) continue;
+    // Neighbouring bins of a line already taken hold its own votes again.
+    const bool taken = std::any_of(segments.begin(), segments.end(), [&](const LineSegment& s) {
+      const auto [dtheta, drho] = LineDistance(s.rho, s.theta, rho, theta);
+      return dtheta < kSameLineRadians && drho < kSameLinePx;
+    });
+    if (taken) continue;
+    std::vector<EdgePixel> pixels =
+        CollectEdgePixels(edges, claimed, gradients, rho, theta, options, visits, ++stamp);
+    if (int(pixels.size()) < min_votes) continue;
+    // The Radon bins quantize the peak: refit on its pixels and look again.
+    std::vector<Eigen::Vector2d> xy;
+    for (const EdgePixel& p : pixels) xy.emplace_back(p.x, p.y);
+    const LineFit coarse = FitLine(xy);
+    // The refitted line turns a little: its positions along the line shift by under a
+    // pixel per hundred, so the same stretch widened by the longest gap holds the pixels.
+    const Eigen::Vector2d first(pixels.front().x, pixels.front().y);
+    const Eigen::Vector2d last(pixels.back().x, pixels.back().y);
+    rho = coarse.rho;
+    theta = coarse.theta;
+    const Eigen::Vector2d along(-std::sin(theta), std::cos(theta));
+    const double margin = options.max_gap_px + 2.0;
+    const double s_first = along.dot(first), s_last = along.dot(last);
+    pixels = CollectEdgePixels(edges, claimed, gradients, rho, theta, options, visits, ++stamp,
+                               std::min(s_first, s_last) - margin, std::max(s_first, s_last) + margin);
+    if (int(pixels.size()) < min_votes) continue;
+    const Eigen::Vector2d normal(std::cos(theta), std::sin(theta));
 
-    // Cut the line at gaps into segments.
+    // Cut the line at gaps; each run long and full enough becomes a segment, fitted on
+    // the sub-pixel positions of its edge points.
     size_t begin = 0;
-    for (size_t i = 1; i <= points.size(); ++i) {
-      if (i < points.size() && points[i].s - points[i - 1].s <= options.max_gap_px + 1.0) continue;
-      const double length = points[i - 1].s - points[begin].s;
-      const size_t count = i - begin;
-      if (length >= options.min_length_px && count >= options.min_fill * length) {
-        std::vector<Eigen::Vector2d> xy;
-        xy.reserve(count);
-        for (size_t j = begin; j < i; ++j) xy.push_back(points[j].point);
-        const LineFit fit = FitLine(xy);
-        LineSegment segment;
-        segment.rho = fit.rho;
-        segment.theta = fit.theta;
-        segment.rms_distance = fit.rms;
-        segment.support = static_cast<int>(count);
-        // End points: the extreme edge points projected onto the fitted line.
-        const Eigen::Vector2d n = segment.Normal();
-        segment.start = points[begin].point - segment.Distance(points[begin].point) * n;
-        segment.end = points[i - 1].point - segment.Distance(points[i - 1].point) * n;
-        for (size_t j = begin; j < i; ++j) {
-          claimed.at<uint8_t>(points[j].pixel.y(), points[j].pixel.x()) = 1;
-        }
-        segments.push_back(segment);
-        if (int(segments.size()) >= options.max_lines) break;
-      }
+    for (size_t i = 1; i <= pixels.size(); ++i) {
+      if (i < pixels.size() && pixels[i].s - pixels[i - 1].s <= options.max_gap_px + 1.0) continue;
+      const double length = pixels[i - 1].s - pixels[begin].s;
+      const size_t run_begin = begin;
       begin = i;
+      if (length < options.min_length_px || i - run_begin < options.min_fill * length) continue;
+      std::vector<Eigen::Vector2d> points;
+      for (size_t j = run_begin; j < i; ++j) {
+        Eigen::Vector2d edge;
+        if (LocateEdgeAlongNormal(gradients, Eigen::Vector2d(pixels[j].x, pixels[j].y), normal,
+                                  1.0, 1.0, &edge) &&
+            std::abs(normal.dot(edge) - rho) <= options.inlier_distance_px) {
+          points.push_back(edge);
+        }
+      }
+      if (points.size() < options.min_fill * length) continue;
+      const LineFit fit = FitLine(points);
+      LineSegment segment;
+      segment.rho = fit.rho;
+      segment.theta = fit.theta;
+      segment.rms_distance = fit.rms;
+      segment.support = static_cast<int>(points.size());
+      // End points: the extreme edge points projected onto the fitted line.
+      const Eigen::Vector2d n = segment.Normal();
+      segment.start = points.front() - segment.Distance(points.front()) * n;
+      segment.end = points.back() - segment.Distance(points.back()) * n;
+      for (size_t j = run_begin; j < i; ++j) claimed.at<uint8_t>(pixels[j].y, pixels[j].x) = 1;
+      segments.push_back(segment);
+      if (int(segments.size()) >= options.max_lines) break;
     }
   }
   return segments;

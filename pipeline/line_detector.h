@@ -13,14 +13,14 @@ namespace autocal {
 struct LineDetectorOptions {
   double canny_low = 30.0;              // Lower hysteresis threshold of the edge detector.
   double canny_high = 90.0;             // Upper hysteresis threshold of the edge detector.
-  double theta_resolution_deg = 0.5;    // Angular bin of the Radon transform.
+  double theta_resolution_deg = 1.0;    // Angular bin of the Radon transform (refined after).
   double rho_resolution_px = 1.0;       // Distance bin of the Radon transform.
   double min_length_px = 40.0;          // Shortest segment reported.
   double max_gap_px = 3.0;              // Longest run without edge pixels inside a segment.
   double min_fill = 0.7;                // Fraction of a segment's length backed by edge pixels.
   double inlier_distance_px = 1.5;      // Edge pixels this close to a line belong to it.
   double max_normal_angle_deg = 20.0;   // Edge gradient must be this close to the line normal.
-  int max_lines = 60;                   // At most this many segments per image.
+  int max_lines = 30;                   // At most this many segments per image.
 
   bool Check(std::string* error) const;
 };
@@ -55,6 +55,8 @@ class Gradients {
  public:
   // Gaussian smoothing with `sigma` before the Sobel derivatives.
   Gradients(const cv::Mat& gray, double sigma);
+  // The gradient at a pixel (inside the image).
+  Eigen::Vector2d At(int x, int y) const;
   // Derivative along the unit vector `direction` at a sub-pixel point (0 outside).
   double Directional(const Eigen::Vector2d& point, const Eigen::Vector2d& direction) const;
   const cv::Mat& smoothed() const { return smoothed_; }
