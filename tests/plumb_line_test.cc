@@ -65,7 +65,7 @@ TEST(PlumbLine, RecoversStrongBarrelFromNoDistortion) {
   const CameraIntrinsics start = Lens(0.0, 0.0);
   const PlumbLineResult result = EstimateDistortion(lines, start, PlumbLineOptions());
   ASSERT_TRUE(result.usable) << result.message;
-  const double error = MaxUndistortionDifference(result.estimate, truth, 0.9);
+  const double error = MaxDistortionDifference(result.estimate, truth, 0.9);
   std::printf("%s; worst displacement error %.3f px\n", result.message.c_str(), error);
   EXPECT_LT(error, 0.5) << "px, out to 90% of the half-diagonal";
   EXPECT_GT(result.rms_before_px, 2.0);
@@ -82,7 +82,7 @@ TEST(PlumbLine, RejectsEdgesCurvedInTheWorld) {
   const PlumbLineResult result = EstimateDistortion(lines, Lens(0, 0), PlumbLineOptions());
   ASSERT_TRUE(result.usable) << result.message;
   EXPECT_GE(result.lines_rejected, 3);
-  EXPECT_LT(MaxUndistortionDifference(result.estimate, truth, 0.9), 0.5);
+  EXPECT_LT(MaxDistortionDifference(result.estimate, truth, 0.9), 0.5);
 }
 
 TEST(PlumbLine, FindsNoSpuriousDistortionOnANearlyPerfectLens) {
@@ -91,9 +91,9 @@ TEST(PlumbLine, FindsNoSpuriousDistortionOnANearlyPerfectLens) {
   const auto lines = SampleLines(truth, 30, 0, 0.1, rng);
   const PlumbLineResult result = EstimateDistortion(lines, Lens(0, 0), PlumbLineOptions());
   ASSERT_TRUE(result.usable) << result.message;
-  EXPECT_LT(MaxUndistortionDifference(result.estimate, Lens(0, 0), 0.9), 0.5)
+  EXPECT_LT(MaxDistortionDifference(result.estimate, Lens(0, 0), 0.9), 0.5)
       << "against no distortion at all";
-  EXPECT_LT(MaxUndistortionDifference(result.estimate, truth, 0.9), 0.5);
+  EXPECT_LT(MaxDistortionDifference(result.estimate, truth, 0.9), 0.5);
 }
 
 TEST(PlumbLine, SaysWhyWhenThereAreTooFewLines) {

@@ -19,10 +19,13 @@
 #include "devices/sim/scene.h"
 #include "devices/sim/trajectory.h"
 #include "pipeline/error.h"
+#include "tests/sim_test_util.h"
 #include "tests/test_util.h"
 
 namespace autocal {
 namespace {
+
+using test::LookingAt;
 
 // Small, quiet scenarios keep the tests fast.
 Scenario Small(const std::string& name) {
@@ -31,24 +34,6 @@ Scenario Small(const std::string& name) {
   s.height = 240;
   s.seconds = 2.0;
   return s;
-}
-
-Eigen::Isometry3d Pose(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = rotation;
-  pose.translation() = translation;
-  return pose;
-}
-
-// Camera `distance_m` from `target`, looking at it along world +x turned by yaw (about z,
-// left positive) and pitch (down positive).
-Eigen::Isometry3d LookingAt(const Eigen::Vector3d& target, double distance_m, double yaw_deg,
-                            double pitch_deg) {
-  const Eigen::Matrix3d world_from_body =
-      (Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()) *
-       Eigen::AngleAxisd(pitch_deg * M_PI / 180.0, Eigen::Vector3d::UnitY()))
-          .toRotationMatrix();
-  return Pose(world_from_body * BodyFromCam(), target - distance_m * world_from_body.col(0));
 }
 
 class SimulatorTest : public ::testing::Test {
