@@ -118,14 +118,17 @@ bool LockOne(const Gradients& gradients, const Eigen::Vector2d& point,
          kMaxAcross * std::abs(gradients.Directional(*edge, normal));
 }
 
-// Moves every vertex onto the edge along its normal; returns which ones locked.
+// Moves every vertex onto the edge along its normal, with the edge sign `polarities`
+// gives it (any sign where that is empty); returns which ones locked.
 std::vector<bool> Lock(std::vector<Eigen::Vector2d>* vertices, const Gradients& gradients,
-                       double search, double min_strength, int polarity) {
+                       double search, double min_strength,
+                       const std::vector<int>& polarities = {}) {
   std::vector<Eigen::Vector2d>& v = *vertices;
   std::vector<Eigen::Vector2d> moved = v;
   std::vector<bool> locked(v.size(), false);
   for (size_t i = 0; i < v.size(); ++i) {
     const Eigen::Vector2d normal = LeftNormal(Tangent(v, i));
+    const int polarity = polarities.empty() ? 0 : polarities[i];
     locked[i] = LockOne(gradients, v[i], normal, search, min_strength, polarity, &moved[i]);
   }
   v = moved;
@@ -188,13 +191,13 @@ void KeepLongestSmoothRun(std::vector<Eigen::Vector2d>* vertices, std::vector<bo
   *locked = std::vector<bool>(locked->begin() + best_begin, locked->begin() + best_end);
 }
 
-// Sign of the edge across the polyline's left normal, by majority of its vertices.
-int Polarity(const std::vector<Eigen::Vector2d>& v, const Gradients& gradients) {
-  double sum = 0.0;
+// Sign of the edge across the polyline's left normal at each vertex.
+std::vector<int> EdgeSigns(const std::vector<Eigen::Vector2d>& v, const Gradients& gradients) {
+  std::vector<int> signs(v.size());
   for (size_t i = 0; i < v.size(); ++i) {
-    sum += gradients.Directional(v[i], LeftNormal(Tangent(v, i))) > 0 ? 1.0 : -1.0;
+    signs[i] = gradients.Directional(v[i], LeftNormal(Tangent(v, i))) > 0 ? 1 : -1;
   }
-  return sum >= 0 ? 1 : -1;
+  return signs;
 }
 
 // One frame of tracking. Returns false when the snake lost its edge.
@@ -208,7 +211,7 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
   for (size_t i = 0; i < v.size(); ++i) normals[i] = LeftNormal(Tangent(v, i));
   std::vector<Eigen::Vector2d> wide = v;
   const std::vector<bool> found =
-      Lock(&wide, gradients, options.search_px, options.min_edge_strength, snake->polarity);
+      Lock(&wide, gradients, options.search_px, options.min_edge_strength, snake->polarities);
   std::vector<double> shifts;
   for (size_t i = 0; i < v.size(); ++i) {
     if (found[i]) shifts.push_back(normals[i].dot(wide[i] - v[i]));
@@ -218,7 +221,7 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
   const double shift = shifts[shifts.size() / 2];
   for (size_t i = 0; i < v.size(); ++i) v[i] += shift * normals[i];
   std::vector<bool> locked =
-      Lock(&v, gradients, kNarrowSearchPx, options.min_edge_strength, snake->polarity);
+      Lock(&v, gradients, kNarrowSearchPx, options.min_edge_strength, snake->polarities);
   for (size_t i = 0; i < v.size(); ++i) {
     locked[i] = locked[i] && Inside(v[i], size, options.border_margin_px);
   }
@@ -249,9 +252,9 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
       const Eigen::Vector2d tangent = (v.back() - v[v.size() - 2]).normalized();
       Eigen::Vector2d candidate = v.back() + options.spacing_px * tangent;
       if (!Inside(candidate, size, options.border_margin_px)) break;
-      const int polarity = end == 1 ? -snake->polarity : snake->polarity;
+      // Either sign: the edge may change sign where it runs on (a checkerboard).
       if (!LockOne(gradients, candidate, LeftNormal(tangent), 0.25 * options.spacing_px,
-                   options.min_edge_strength, polarity, &candidate) ||
+                   options.min_edge_strength, 0, &candidate) ||
           !Inside(candidate, size, options.border_margin_px)) {
         break;
       }
@@ -269,14 +272,14 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
   v = Resample(v, options.spacing_px);
   if (v.size() < 3) return false;
   std::vector<Eigen::Vector2d> relocked = v;
-  const std::vector<bool> on_edge =
-      Lock(&relocked, gradients, 1.0, options.min_edge_strength, snake->polarity);
+  const std::vector<bool> on_edge = Lock(&relocked, gradients, 1.0, options.min_edge_strength);
   for (size_t i = 0; i < v.size(); ++i) {
     if (on_edge[i] && Inside(relocked[i], size, options.border_margin_px)) v[i] = relocked[i];
   }
   std::vector<bool> all_locked(v.size(), true);
   KeepLongestSmoothRun(&v, &all_locked, options.max_bend_change_deg);
   if (v.size() < 3) return false;
+  snake->polarities = EdgeSigns(v, gradients);
   ++snake->age;
   return snake->Length() >= options.min_length_px;
 }
@@ -318,10 +321,10 @@ void SnakeTracker::Update(const Gradients& gradients, const std::vector<LineSegm
     RadonSnake snake;
     snake.vertices = Resample({line.start, line.end}, options_.spacing_px);
     if (snake.vertices.size() < 3) continue;
-    snake.polarity = Polarity(snake.vertices, gradients);
-    const std::vector<bool> locked = Lock(&snake.vertices, gradients, 1.5,
-                                          options_.min_edge_strength, snake.polarity);
+    const std::vector<bool> locked =
+        Lock(&snake.vertices, gradients, 1.5, options_.min_edge_strength);
     if (std::count(locked.begin(), locked.end(), false) > 0) continue;
+    snake.polarities = EdgeSigns(snake.vertices, gradients);
     snake.id = next_id_++;
     snakes_.push_back(std::move(snake));
   }

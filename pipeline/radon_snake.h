@@ -38,7 +38,9 @@ struct RadonSnake {
   // probes for more of its edge (they may sit on a junction); the inner ones are
   // confirmed, and only they are measurements.
   std::vector<Eigen::Vector2d> vertices;
-  int polarity = 0;                       // Sign of the edge across the snake's left normal.
+  // Sign of the edge across the left normal at each hinge: +1 where the image brightens
+  // to the left. It may alternate along a snake (a checkerboard's grid lines).
+  std::vector<int> polarities;
   int age = 0;                            // Frames tracked.
 
   // Bend at each inner vertex, degrees (vertices.size() - 2 values; signed).
