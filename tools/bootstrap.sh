@@ -17,6 +17,7 @@ packages=(
   libusb-1.0-0-dev libsqlite3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth umockdev libumockdev-dev
+  opencv-doc
 )
 
 install_missing() {
