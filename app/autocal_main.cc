@@ -1,5 +1,6 @@
 // autocal: the headless command-line tool. Parses the subcommand and hands over.
 #include <cstdio>
+#include <exception>
 #include <functional>
 #include <map>
 
@@ -64,5 +65,11 @@ int main(int argc, char** argv) {
     PrintUsage(stderr);
     return 2;
   }
-  return command->second.run(arguments.mid(2));
+  try {
+    return command->second.run(arguments.mid(2));
+  } catch (const std::exception& error) {
+    // Commands report expected failures themselves; this is a bug or a library's surprise.
+    std::fprintf(stderr, "autocal %s: unexpected error: %s\n", qPrintable(first), error.what());
+    return 1;
+  }
 }

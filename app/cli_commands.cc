@@ -197,7 +197,11 @@ int Distortion(const QStringList& arguments) {
   std::vector<std::string> files;
   for (const QString& pattern : parser.values("images")) {
     std::vector<cv::String> matches;
-    cv::glob(pattern.toStdString(), matches, false);
+    try {
+      cv::glob(pattern.toStdString(), matches, false);
+    } catch (const cv::Exception&) {
+      matches.clear();  // OpenCV throws when the pattern's folder does not exist.
+    }
     if (matches.empty()) return UsageError(name, "no file matches " + pattern, parser);
     files.insert(files.end(), matches.begin(), matches.end());
   }
