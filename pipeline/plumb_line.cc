@@ -37,23 +37,29 @@ namespace {
 // point for the barrel lenses we meet (|k1| <= 0.4 out to the image corners).
 constexpr int kNewtonSteps = 10;
 
-// Distance, in pixels, of one undistorted point from its line x cos(t) + y sin(t) = rho
-// in ideal normalized coordinates.
-struct StraightnessCost {
-  StraightnessCost(const Eigen::Vector2d& pixel, double scale) : pixel_(pixel), scale_(scale) {}
+// Scale of the robust loss while far from the answer, px.
+constexpr double kCoarseLossPx = 5.0;
+
+// Where a point of a straight world line lands, against where it was observed. The line
+// is x cos(t) + y sin(t) = rho in ideal normalized coordinates, the point sits at position
+// s along it, and the lens model carries it into the image: the error is measured where
+// the noise is, in pixels of the distorted image, and needs no inverse of the lens (which
+// a trial distortion may not have).
+struct LinePointCost {
+  explicit LinePointCost(const Eigen::Vector2d& pixel) : pixel_(pixel) {}
 
   template <typename T>
-  bool operator()(const T* intrinsics, const T* line, T* residual) const {
-    const T xd = (T(pixel_.x()) - intrinsics[kCx]) / intrinsics[kFx];
-    const T yd = (T(pixel_.y()) - intrinsics[kCy]) / intrinsics[kFy];
-    T x, y;
-    UndistortNormalizedNewton(intrinsics + kK1, xd, yd, kNewtonSteps, &x, &y);
-    residual[0] = T(scale_) * (cos(line[0]) * x + sin(line[0]) * y - line[1]);
+  bool operator()(const T* intrinsics, const T* line, const T* position, T* residual) const {
+    const T nx = cos(line[0]), ny = sin(line[0]);
+    const T point[3] = {line[1] * nx - position[0] * ny, line[1] * ny + position[0] * nx, T(1.0)};
+    T pixel[2];
+    ProjectPoint(intrinsics, point, pixel);
+    residual[0] = pixel[0] - T(pixel_.x());
+    residual[1] = pixel[1] - T(pixel_.y());
     return true;
   }
 
   Eigen::Vector2d pixel_;
-  double scale_;
 };
 
 std::vector<Eigen::Vector2d> Undistorted(const LineObservation& line, const CameraIntrinsics& c) {
@@ -97,22 +103,33 @@ struct Solve {
 };
 
 Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIntrinsics& start,
-                const PlumbLineOptions& options) {
+                const PlumbLineOptions& options, double loss_scale_px) {
   Solve solve;
   solve.intrinsics = start.Packed();
   ceres::Problem problem;
+  auto* ordering = new ceres::ParameterBlockOrdering;
   std::vector<std::array<double, 2>> line_parameters(lines.size());
+  size_t point_count = 0;
+  for (const LineObservation* line : lines) point_count += line->points.size();
+  std::vector<double> positions;
+  positions.reserve(point_count);  // Parameter blocks must not move.
   for (size_t i = 0; i < lines.size(); ++i) {
-    const LineFit fit = FitLine(Undistorted(*lines[i], start));
+    const std::vector<Eigen::Vector2d> ideal = Undistorted(*lines[i], start);
+    const LineFit fit = FitLine(ideal);
     line_parameters[i] = {fit.theta, fit.rho};
-    for (const Eigen::Vector2d& pixel : lines[i]->points) {
+    const Eigen::Vector2d along(-std::sin(fit.theta), std::cos(fit.theta));
+    for (size_t k = 0; k < ideal.size(); ++k) {
+      positions.push_back(along.dot(ideal[k]));
       problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<StraightnessCost, 1, kNumIntrinsics, 2>(
-              new StraightnessCost(pixel, start.fx)),
-          new ceres::CauchyLoss(options.loss_scale_px), solve.intrinsics.data(),
-          line_parameters[i].data());
+          new ceres::AutoDiffCostFunction<LinePointCost, 2, kNumIntrinsics, 2, 1>(
+              new LinePointCost(lines[i]->points[k])),
+          new ceres::CauchyLoss(loss_scale_px), solve.intrinsics.data(),
+          line_parameters[i].data(), &positions.back());
+      ordering->AddElementToGroup(&positions.back(), 0);
     }
+    ordering->AddElementToGroup(line_parameters[i].data(), 1);
   }
+  ordering->AddElementToGroup(solve.intrinsics.data(), 1);
   std::vector<int> fixed = {kFx, kFy};
   if (!options.estimate_centre) fixed.insert(fixed.end(), {kCx, kCy});
   if (!options.estimate_tangential) fixed.insert(fixed.end(), {kP1, kP2});
@@ -120,7 +137,10 @@ Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIn
   problem.SetManifold(solve.intrinsics.data(), new ceres::SubsetManifold(kNumIntrinsics, fixed));
 
   ceres::Solver::Options solver_options;
+  // Points along their lines are eliminated first (Schur complement), as in bundle
+  // adjustment.
   solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+  solver_options.linear_solver_ordering.reset(ordering);
   solver_options.max_num_iterations = options.max_iterations;
   solver_options.num_threads = 1;
   ceres::Solver::Summary summary;
@@ -167,13 +187,26 @@ PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observati
     return result;
   }
 
-  Solve solve = SolveOnce(lines, initial, options);
+  // Coarse to fine. Far from the answer most residuals are large, and a tight robust loss
+  // would write whole lines off as outliers: solve first with a loose loss, with k1, k2
+  // alone (the centre and the tangential terms trade off against each other and against
+  // the radial ones, so a full solve from no distortion can settle in a wrong minimum),
+  // then the full model; drop the lines that stay curved (curved in the world, or
+  // mistracked); and solve again with the tight loss.
+  PlumbLineOptions radial = options;
+  radial.estimate_centre = radial.estimate_tangential = radial.estimate_k3 = false;
+  const double coarse_loss = std::max(kCoarseLossPx, options.loss_scale_px);
+  Solve solve = SolveOnce(lines, initial, radial, coarse_loss);
+  const bool richer = options.estimate_centre || options.estimate_tangential || options.estimate_k3;
+  if (solve.converged && richer) {
+    solve = SolveOnce(lines, CameraIntrinsics::FromPacked(solve.intrinsics, initial.width,
+                                                          initial.height),
+                      options, coarse_loss);
+  }
   if (solve.converged) {
-    // Edges curved in the world (or mistracked) stand out after a first solve: drop them
-    // and solve again from there.
-    const CameraIntrinsics first =
+    const CameraIntrinsics coarse =
         CameraIntrinsics::FromPacked(solve.intrinsics, initial.width, initial.height);
-    std::vector<double> rms = PerLineRms(lines, first);
+    std::vector<double> rms = PerLineRms(lines, coarse);
     std::vector<double> sorted = rms;
     std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
     const double limit = options.outlier_factor * std::max(sorted[sorted.size() / 2], 0.05);
@@ -181,13 +214,11 @@ PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observati
     for (size_t i = 0; i < lines.size(); ++i) {
       if (rms[i] <= limit) inliers.push_back(lines[i]);
     }
-    result.lines_rejected = static_cast<int>(lines.size() - inliers.size());
-    if (result.lines_rejected > 0 && int(inliers.size()) >= options.min_lines) {
+    if (int(inliers.size()) >= options.min_lines) {
+      result.lines_rejected = static_cast<int>(lines.size() - inliers.size());
       lines = inliers;
-      solve = SolveOnce(lines, first, options);
-    } else {
-      result.lines_rejected = 0;
     }
+    solve = SolveOnce(lines, coarse, options, options.loss_scale_px);
   }
   if (!solve.converged) {
     result.message = "no estimate: the solver failed: " + solve.report;

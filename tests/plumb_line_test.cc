@@ -96,6 +96,33 @@ TEST(PlumbLine, FindsNoSpuriousDistortionOnANearlyPerfectLens) {
   EXPECT_LT(MaxDistortionDifference(result.estimate, truth, 0.9), 0.5);
 }
 
+TEST(PlumbLine, FreesTangentialK3AndTheCentreWhenAsked) {
+  CameraIntrinsics truth = Lens(-0.28, 0.09);
+  truth.p1 = 0.002;
+  truth.p2 = -0.0015;
+  truth.k3 = -0.01;
+  truth.cx += 8.0;
+  truth.cy -= 6.0;
+  cv::RNG rng(9);
+  const auto lines = SampleLines(truth, 60, 0, 0.1, rng);
+  CameraIntrinsics start = Lens(0, 0);  // Centre 8 px and 6 px off.
+  PlumbLineOptions options;
+  options.estimate_tangential = true;
+  options.estimate_k3 = true;
+  options.estimate_centre = true;
+  const PlumbLineResult result = EstimateDistortion(lines, start, options);
+  ASSERT_TRUE(result.usable) << result.message;
+  EXPECT_LT(MaxDistortionDifference(result.estimate, truth, 0.9), 0.5);
+  EXPECT_NEAR(result.estimate.cx, truth.cx, 2.0);
+  EXPECT_NEAR(result.estimate.cy, truth.cy, 2.0);
+  EXPECT_EQ(result.covariance.rows(), 7) << "k1 k2 p1 p2 k3 cx cy free";
+  EXPECT_NEAR(result.estimate.p1, truth.p1, 2e-4);
+  EXPECT_NEAR(result.estimate.p2, truth.p2, 2e-4);
+  // With k1, k2 alone about the wrong centre, this lens cannot be matched.
+  const PlumbLineResult radial_only = EstimateDistortion(lines, start, PlumbLineOptions());
+  EXPECT_GT(MaxDistortionDifference(radial_only.estimate, truth, 0.9), 1.0);
+}
+
 TEST(PlumbLine, SaysWhyWhenThereAreTooFewLines) {
   cv::RNG rng(1);
   const auto lines = SampleLines(Lens(-0.3, 0.1), 3, 0, 0.1, rng);
