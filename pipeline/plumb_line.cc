@@ -10,6 +10,7 @@
 #include <ceres/ceres.h>
 
 #include "pipeline/line_detector.h"
+#include "pipeline/plumb_line_problem.h"
 
 namespace autocal {
 
@@ -39,28 +40,6 @@ constexpr int kNewtonSteps = 10;
 
 // Scale of the robust loss while far from the answer, px.
 constexpr double kCoarseLossPx = 5.0;
-
-// Where a point of a straight world line lands, against where it was observed. The line
-// is x cos(t) + y sin(t) = rho in ideal normalized coordinates, the point sits at position
-// s along it, and the lens model carries it into the image: the error is measured where
-// the noise is, in pixels of the distorted image, and needs no inverse of the lens (which
-// a trial distortion may not have).
-struct LinePointCost {
-  explicit LinePointCost(const Eigen::Vector2d& pixel) : pixel_(pixel) {}
-
-  template <typename T>
-  bool operator()(const T* intrinsics, const T* line, const T* position, T* residual) const {
-    const T nx = cos(line[0]), ny = sin(line[0]);
-    const T point[3] = {line[1] * nx - position[0] * ny, line[1] * ny + position[0] * nx, T(1.0)};
-    T pixel[2];
-    ProjectPoint(intrinsics, point, pixel);
-    residual[0] = pixel[0] - T(pixel_.x());
-    residual[1] = pixel[1] - T(pixel_.y());
-    return true;
-  }
-
-  Eigen::Vector2d pixel_;
-};
 
 std::vector<Eigen::Vector2d> Undistorted(const LineObservation& line, const CameraIntrinsics& c) {
   std::vector<Eigen::Vector2d> points;
@@ -108,27 +87,9 @@ Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIn
   solve.intrinsics = start.Packed();
   ceres::Problem problem;
   auto* ordering = new ceres::ParameterBlockOrdering;
-  std::vector<std::array<double, 2>> line_parameters(lines.size());
-  size_t point_count = 0;
-  for (const LineObservation* line : lines) point_count += line->points.size();
-  std::vector<double> positions;
-  positions.reserve(point_count);  // Parameter blocks must not move.
-  for (size_t i = 0; i < lines.size(); ++i) {
-    const std::vector<Eigen::Vector2d> ideal = Undistorted(*lines[i], start);
-    const LineFit fit = FitLine(ideal);
-    line_parameters[i] = {fit.theta, fit.rho};
-    const Eigen::Vector2d along(-std::sin(fit.theta), std::cos(fit.theta));
-    for (size_t k = 0; k < ideal.size(); ++k) {
-      positions.push_back(along.dot(ideal[k]));
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<LinePointCost, 2, kNumIntrinsics, 2, 1>(
-              new LinePointCost(lines[i]->points[k])),
-          new ceres::CauchyLoss(loss_scale_px), solve.intrinsics.data(),
-          line_parameters[i].data(), &positions.back());
-      ordering->AddElementToGroup(&positions.back(), 0);
-    }
-    ordering->AddElementToGroup(line_parameters[i].data(), 1);
-  }
+  PlumbLineBlocks line_blocks;
+  AddPlumbLineResiduals(lines, start, loss_scale_px, solve.intrinsics.data(), &problem, ordering,
+                        &line_blocks);
   ordering->AddElementToGroup(solve.intrinsics.data(), 1);
   std::vector<int> fixed = {kFx, kFy};
   if (!options.estimate_centre) fixed.insert(fixed.end(), {kCx, kCy});
@@ -169,6 +130,33 @@ Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIn
 }
 
 }  // namespace
+
+void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
+                           const CameraIntrinsics& start, double loss_px, double* intrinsics,
+                           ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering,
+                           PlumbLineBlocks* blocks) {
+  blocks->lines.resize(lines.size());
+  size_t point_count = 0;
+  for (const LineObservation* line : lines) point_count += line->points.size();
+  blocks->positions.clear();
+  blocks->positions.reserve(point_count);  // Parameter blocks must not move.
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const std::vector<Eigen::Vector2d> ideal = Undistorted(*lines[i], start);
+    const LineFit fit = FitLine(ideal);
+    blocks->lines[i] = {fit.theta, fit.rho};
+    const Eigen::Vector2d along(-std::sin(fit.theta), std::cos(fit.theta));
+    for (size_t k = 0; k < ideal.size(); ++k) {
+      blocks->positions.push_back(along.dot(ideal[k]));
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<LinePointCost, 2, kNumIntrinsics, 2, 1>(
+              new LinePointCost(lines[i]->points[k])),
+          new ceres::CauchyLoss(loss_px), intrinsics, blocks->lines[i].data(),
+          &blocks->positions.back());
+      ordering->AddElementToGroup(&blocks->positions.back(), 0);
+    }
+    ordering->AddElementToGroup(blocks->lines[i].data(), 1);
+  }
+}
 
 PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observations,
                                    const CameraIntrinsics& initial,
