@@ -1,0 +1,566 @@
+#include "pipeline/self_calibration.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+#include "pipeline/plumb_line_problem.h"
+
+namespace autocal {
+
+bool SelfCalibrationOptions::Check(std::string* error) const {
+  std::ostringstream why;
+  if (!(loss_px > 0)) {
+    why << "loss_px must be positive";
+  } else if (!(prior_focal_fraction > 0) || !(prior_principal_px > 0) || !(prior_distortion > 0)) {
+    why << "prior sigmas (prior_focal_fraction, prior_principal_px, prior_distortion) must be "
+           "positive";
+  } else if (min_frames < 3) {
+    why << "min_frames must be at least 3";
+  } else if (min_points_per_plane < 6) {
+    why << "min_points_per_plane must be at least 6";
+  } else if (!(min_rotation_deg >= 0)) {
+    why << "min_rotation_deg must not be negative";
+  } else if (!(max_focal_sigma > 0)) {
+    why << "max_focal_sigma must be positive";
+  } else if (max_iterations < 1) {
+    why << "max_iterations must be at least 1";
+  }
+  if (why.str().empty()) return true;
+  if (error) *error = why.str();
+  return false;
+}
+
+namespace {
+
+// A tracked point of a plane, at (u, v) in the plane's own frame, seen in a frame.
+// Parameters: packed intrinsics, cam_from_world and world_from_plane (angle-axis, then
+// translation), the point's (u, v).
+struct PlanePointCost {
+  explicit PlanePointCost(const Eigen::Vector2d& pixel) : pixel_(pixel) {}
+
+  template <typename T>
+  bool operator()(const T* intrinsics, const T* cam_from_world, const T* world_from_plane,
+                  const T* uv, T* residual) const {
+    const T in_plane[3] = {uv[0], uv[1], T(0.0)};
+    T world[3], cam[3];
+    ceres::AngleAxisRotatePoint(world_from_plane, in_plane, world);
+    for (int i = 0; i < 3; ++i) world[i] += world_from_plane[3 + i];
+    ceres::AngleAxisRotatePoint(cam_from_world, world, cam);
+    for (int i = 0; i < 3; ++i) cam[i] += cam_from_world[3 + i];
+    if (!(cam[2] > T(0.0))) return false;
+    T pixel[2];
+    ProjectPoint(intrinsics, cam, pixel);
+    residual[0] = pixel[0] - T(pixel_.x());
+    residual[1] = pixel[1] - T(pixel_.y());
+    return true;
+  }
+
+  Eigen::Vector2d pixel_;
+};
+
+// The accelerometer's "down" in a frame at rest, against the world's down turned into it.
+struct GravityCost {
+  GravityCost(const Eigen::Vector3d& down_cam, double weight) : down_(down_cam), weight_(weight) {}
+
+  template <typename T>
+  bool operator()(const T* cam_from_world, const T* down_world, T* residual) const {
+    T turned[3];
+    ceres::AngleAxisRotatePoint(cam_from_world, down_world, turned);
+    for (int i = 0; i < 3; ++i) residual[i] = T(weight_) * (turned[i] - T(down_[i]));
+    return true;
+  }
+
+  Eigen::Vector3d down_;
+  double weight_;
+};
+
+// The weak prior: each free intrinsic near the last accepted value.
+struct PriorCost {
+  PriorCost(const std::array<double, kNumIntrinsics>& prior,
+            const std::array<double, kNumIntrinsics>& weight)
+      : prior_(prior), weight_(weight) {}
+
+  template <typename T>
+  bool operator()(const T* intrinsics, T* residual) const {
+    for (int i = 0; i < kNumIntrinsics; ++i) {
+      residual[i] = T(weight_[i]) * (intrinsics[i] - T(prior_[i]));
+    }
+    return true;
+  }
+
+  std::array<double, kNumIntrinsics> prior_, weight_;
+};
+
+using Pose = std::array<double, 6>;  // Angle-axis, then translation.
+
+Eigen::Isometry3d ToIsometry(const Pose& pose) {
+  Eigen::Isometry3d iso = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d axis(pose[0], pose[1], pose[2]);
+  const double angle = axis.norm();
+  if (angle > 0) iso.linear() = Eigen::AngleAxisd(angle, axis / angle).toRotationMatrix();
+  iso.translation() = Eigen::Vector3d(pose[3], pose[4], pose[5]);
+  return iso;
+}
+
+Pose FromIsometry(const Eigen::Isometry3d& iso) {
+  const Eigen::AngleAxisd axis(iso.rotation());
+  const Eigen::Vector3d v = axis.angle() * axis.axis();
+  return {v.x(), v.y(), v.z(), iso.translation().x(), iso.translation().y(),
+          iso.translation().z()};
+}
+
+double AngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(a * b.transpose()).angle() * 180.0 / M_PI;
+}
+
+// Observations of one plane: point id -> frame -> ideal normalized coordinates.
+using Tracks = std::map<int, std::map<int, Eigen::Vector2d>>;
+
+struct Structure {
+  std::vector<std::optional<Eigen::Isometry3d>> cam_from_world;
+  std::vector<std::map<int, Eigen::Vector3d>> points;  // Per plane: point id -> world.
+};
+
+// Poses of the frames that share enough anchor-plane points with the reference frame,
+// from the homographies between them (the plane is n . X = 1 in the reference camera).
+void PoseFromAnchor(const Tracks& anchor, int reference, int frame_count, Structure* s) {
+  struct Candidate {
+    int frame;
+    Eigen::Matrix3d rotation;
+    Eigen::Vector3d translation, normal;
+  };
+  std::vector<Candidate> candidates;
+  for (int frame = 0; frame < frame_count; ++frame) {
+    if (frame == reference) continue;
+    std::vector<cv::Point2f> from, to;
+    for (const auto& [id, seen] : anchor) {
+      const auto a = seen.find(reference), b = seen.find(frame);
+      if (a == seen.end() || b == seen.end()) continue;
+      from.emplace_back(float(a->second.x()), float(a->second.y()));
+      to.emplace_back(float(b->second.x()), float(b->second.y()));
+    }
+    if (from.size() < 8) continue;
+    const cv::Mat h = cv::findHomography(from, to, cv::RANSAC, 0.005);
+    if (h.empty()) continue;
+    std::vector<cv::Mat> rotations, translations, normals;
+    cv::decomposeHomographyMat(h, cv::Mat::eye(3, 3, CV_64F), rotations, translations, normals);
+    std::vector<int> visible;
+    cv::filterHomographyDecompByVisibleRefpoints(rotations, normals, from, to, visible);
+    for (int k : visible) {
+      Candidate c;
+      c.frame = frame;
+      cv::cv2eigen(rotations[k], c.rotation);
+      cv::cv2eigen(translations[k], c.translation);
+      cv::cv2eigen(normals[k], c.normal);
+      candidates.push_back(c);
+    }
+  }
+  if (candidates.empty()) return;
+  // The true normal is the same from every frame; the twin solutions wander.
+  Eigen::Vector3d normal = candidates.front().normal;
+  int best_votes = -1;
+  for (const Candidate& c : candidates) {
+    int votes = 0;
+    for (const Candidate& other : candidates) {
+      votes += other.frame != c.frame && c.normal.dot(other.normal) > std::cos(10 * M_PI / 180);
+    }
+    if (votes > best_votes) {
+      best_votes = votes;
+      normal = c.normal;
+    }
+  }
+  for (const Candidate& c : candidates) {
+    if (c.normal.dot(normal) < std::cos(15 * M_PI / 180)) continue;
+    auto& pose = s->cam_from_world[c.frame];
+    if (pose) continue;
+    Eigen::Isometry3d iso = Eigen::Isometry3d::Identity();
+    iso.linear() = c.rotation;
+    iso.translation() = c.translation;
+    pose = iso;
+  }
+  // Reference-frame points of the anchor on its plane.
+  for (const auto& [id, seen] : anchor) {
+    const auto a = seen.find(reference);
+    if (a == seen.end()) continue;
+    const Eigen::Vector3d ray(a->second.x(), a->second.y(), 1.0);
+    if (normal.dot(ray) > 1e-6) s->points[0][id] = ray / normal.dot(ray);
+  }
+}
+
+// Points seen from two posed frames with enough parallax, triangulated.
+void Triangulate(const std::vector<Tracks>& planes, Structure* s) {
+  for (size_t p = 0; p < planes.size(); ++p) {
+    for (const auto& [id, seen] : planes[p]) {
+      if (s->points[p].count(id)) continue;
+      double best_angle = 1.0 * M_PI / 180;
+      std::optional<std::pair<int, int>> pair;
+      for (auto a = seen.begin(); a != seen.end(); ++a) {
+        if (!s->cam_from_world[a->first]) continue;
+        const Eigen::Vector3d ray_a = s->cam_from_world[a->first]->rotation().transpose() *
+                                      Eigen::Vector3d(a->second.x(), a->second.y(), 1).normalized();
+        for (auto b = std::next(a); b != seen.end(); ++b) {
+          if (!s->cam_from_world[b->first]) continue;
+          const Eigen::Vector3d ray_b =
+              s->cam_from_world[b->first]->rotation().transpose() *
+              Eigen::Vector3d(b->second.x(), b->second.y(), 1).normalized();
+          const double angle = std::acos(std::clamp(ray_a.dot(ray_b), -1.0, 1.0));
+          if (angle > best_angle) {
+            best_angle = angle;
+            pair = {a->first, b->first};
+          }
+        }
+      }
+      if (!pair) continue;
+      cv::Mat pa, pb;
+      cv::eigen2cv(Eigen::Matrix<double, 3, 4>(s->cam_from_world[pair->first]->matrix().topRows(3)), pa);
+      cv::eigen2cv(Eigen::Matrix<double, 3, 4>(s->cam_from_world[pair->second]->matrix().topRows(3)), pb);
+      const Eigen::Vector2d& xa = seen.at(pair->first);
+      const Eigen::Vector2d& xb = seen.at(pair->second);
+      cv::Mat homogeneous;
+      cv::triangulatePoints(pa, pb, cv::Mat(cv::Point2d(xa.x(), xa.y())),
+                            cv::Mat(cv::Point2d(xb.x(), xb.y())), homogeneous);
+      const Eigen::Vector3d x(homogeneous.at<double>(0) / homogeneous.at<double>(3),
+                              homogeneous.at<double>(1) / homogeneous.at<double>(3),
+                              homogeneous.at<double>(2) / homogeneous.at<double>(3));
+      if ((*s->cam_from_world[pair->first] * x).z() > 0 &&
+          (*s->cam_from_world[pair->second] * x).z() > 0) {
+        s->points[p][id] = x;
+      }
+    }
+  }
+}
+
+// Frames without a pose placed by PnP on the points known so far.
+void PlaceByPnp(const std::vector<Tracks>& planes, Structure* s) {
+  for (size_t frame = 0; frame < s->cam_from_world.size(); ++frame) {
+    if (s->cam_from_world[frame]) continue;
+    std::vector<cv::Point3d> object;
+    std::vector<cv::Point2d> image;
+    for (size_t p = 0; p < planes.size(); ++p) {
+      for (const auto& [id, seen] : planes[p]) {
+        const auto known = s->points[p].find(id);
+        const auto here = seen.find(int(frame));
+        if (known == s->points[p].end() || here == seen.end()) continue;
+        object.emplace_back(known->second.x(), known->second.y(), known->second.z());
+        image.emplace_back(here->second.x(), here->second.y());
+      }
+    }
+    if (object.size() < 8) continue;
+    cv::Mat rvec, tvec;
+    if (!cv::solvePnPRansac(object, image, cv::Mat::eye(3, 3, CV_64F), cv::noArray(), rvec, tvec,
+                            false, 200, 0.005)) {
+      continue;
+    }
+    Pose pose = {rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2),
+                 tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)};
+    s->cam_from_world[frame] = ToIsometry(pose);
+  }
+}
+
+}  // namespace
+
+SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
+                                    const CameraIntrinsics& prior,
+                                    const SelfCalibrationOptions& options) {
+  SelfCalibrationResult result;
+  result.estimate = prior;
+  auto no_update = [&](const std::string& why) {
+    result.reason = "no update: " + why;
+    return result;
+  };
+
+  // Observations in ideal normalized coordinates of the prior, per usable plane; the
+  // largest plane anchors the world.
+  std::vector<const PlaneTrack*> used;
+  std::vector<Tracks> tracks;
+  for (const PlaneTrack& plane : material.planes) {
+    Tracks t;
+    for (const PlaneObservation& o : plane.observations) {
+      if (o.frame < 0 || o.frame >= material.frame_count) continue;
+      if (const auto ray = Unproject(prior, o.pixel)) t[o.point][o.frame] = *ray;
+    }
+    if (int(t.size()) < options.min_points_per_plane) continue;
+    used.push_back(&plane);
+    tracks.push_back(std::move(t));
+  }
+  if (tracks.empty()) {
+    return no_update("no plane with " + std::to_string(options.min_points_per_plane) +
+                     " tracked points");
+  }
+  const auto by_size = [&](size_t a, size_t b) { return tracks[a].size() > tracks[b].size(); };
+  std::vector<size_t> order(tracks.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), by_size);
+  std::vector<Tracks> sorted_tracks;
+  std::vector<const PlaneTrack*> sorted_used;
+  for (size_t i : order) {
+    sorted_tracks.push_back(std::move(tracks[i]));
+    sorted_used.push_back(used[i]);
+  }
+  tracks = std::move(sorted_tracks);
+  used = std::move(sorted_used);
+
+  // The anchor's reference: the frame that sees most of it.
+  std::map<int, int> seen_in;
+  for (const auto& [id, seen] : tracks[0]) {
+    for (const auto& [frame, x] : seen) ++seen_in[frame];
+  }
+  const int reference =
+      std::max_element(seen_in.begin(), seen_in.end(),
+                       [](const auto& a, const auto& b) { return a.second < b.second; })->first;
+
+  Structure structure;
+  structure.cam_from_world.resize(material.frame_count);
+  structure.cam_from_world[reference] = Eigen::Isometry3d::Identity();
+  structure.points.resize(tracks.size());
+  PoseFromAnchor(tracks[0], reference, material.frame_count, &structure);
+  for (int round = 0; round < 3; ++round) {
+    Triangulate(tracks, &structure);
+    PlaceByPnp(tracks, &structure);
+  }
+  Triangulate(tracks, &structure);
+
+  std::vector<int> posed;
+  for (int f = 0; f < material.frame_count; ++f) {
+    if (structure.cam_from_world[f]) posed.push_back(f);
+  }
+  if (int(posed.size()) < options.min_frames) {
+    return no_update("only " + std::to_string(posed.size()) + " frames could be placed (" +
+                     std::to_string(options.min_frames) + " needed)");
+  }
+  for (int a : posed) {
+    for (int b : posed) {
+      result.rotation_spread_deg =
+          std::max(result.rotation_spread_deg,
+                   AngleDeg(structure.cam_from_world[a]->rotation(),
+                            structure.cam_from_world[b]->rotation()));
+    }
+  }
+  if (result.rotation_spread_deg < options.min_rotation_deg) {
+    std::ostringstream why;
+    why.precision(2);
+    why << std::fixed << "insufficient rotation (" << result.rotation_spread_deg
+        << " deg between views, " << options.min_rotation_deg << " needed)";
+    return no_update(why.str());
+  }
+
+  // Each plane: a frame through its first point, its first axis toward its second point;
+  // its points as (u, v) in that frame.
+  ceres::Problem problem;
+  auto* ordering = new ceres::ParameterBlockOrdering;
+  std::array<double, kNumIntrinsics> intrinsics = prior.Packed();
+  std::vector<Pose> frame_poses(material.frame_count);
+  for (int f : posed) frame_poses[f] = FromIsometry(*structure.cam_from_world[f]);
+  std::vector<Pose> plane_poses(tracks.size());
+  std::vector<std::map<int, std::array<double, 2>>> plane_points(tracks.size());
+  std::vector<std::pair<int, int>> gauge_points;  // (plane, point id) of each plane's axis point.
+  struct Residual {
+    int frame, plane, point;
+    Eigen::Vector2d pixel;
+  };
+  std::vector<Residual> residuals;
+  for (size_t p = 0; p < tracks.size(); ++p) {
+    const auto& points = structure.points[p];
+    if (int(points.size()) < options.min_points_per_plane) continue;
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (const auto& [id, x] : points) centroid += x;
+    centroid /= double(points.size());
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    for (const auto& [id, x] : points) scatter += (x - centroid) * (x - centroid).transpose();
+    const Eigen::Vector3d normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter)
+                                       .eigenvectors()
+                                       .col(0);
+    const Eigen::Vector3d origin = points.begin()->second - normal.dot(points.begin()->second - centroid) * normal;
+    Eigen::Vector3d axis_u = std::next(points.begin())->second - origin;
+    axis_u = (axis_u - normal.dot(axis_u) * normal).normalized();
+    Eigen::Isometry3d world_from_plane = Eigen::Isometry3d::Identity();
+    world_from_plane.linear() << axis_u, normal.cross(axis_u), normal;
+    world_from_plane.translation() = origin;
+    plane_poses[p] = FromIsometry(world_from_plane);
+    for (const auto& [id, x] : points) {
+      const Eigen::Vector3d local = world_from_plane.inverse() * x;
+      plane_points[p][id] = {local.x(), local.y()};
+    }
+    // Gauge: the first point is the plane's origin, the second lies on its first axis.
+    plane_points[p].begin()->second = {0.0, 0.0};
+    std::next(plane_points[p].begin())->second[1] = 0.0;
+    for (const auto& [id, seen] : tracks[p]) {
+      if (!plane_points[p].count(id)) continue;
+      for (const PlaneObservation& o : used[p]->observations) {
+        if (o.point == id && structure.cam_from_world[o.frame]) {
+          residuals.push_back({o.frame, int(p), id, o.pixel});
+        }
+      }
+    }
+    ++result.planes_used;
+    result.points_used += int(plane_points[p].size());
+  }
+  for (const Residual& r : residuals) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<PlanePointCost, 2, kNumIntrinsics, 6, 6, 2>(
+            new PlanePointCost(r.pixel)),
+        new ceres::CauchyLoss(options.loss_px), intrinsics.data(), frame_poses[r.frame].data(),
+        plane_poses[r.plane].data(), plane_points[r.plane][r.point].data());
+  }
+  result.observations_used = int(residuals.size());
+  if (residuals.empty()) return no_update("no plane point seen from two placed frames");
+  for (size_t p = 0; p < tracks.size(); ++p) {
+    if (plane_points[p].size() < 2) continue;
+    for (auto& [id, uv] : plane_points[p]) {
+      if (problem.HasParameterBlock(uv.data())) ordering->AddElementToGroup(uv.data(), 0);
+    }
+    auto first = plane_points[p].begin();
+    if (problem.HasParameterBlock(first->second.data())) {
+      problem.SetParameterBlockConstant(first->second.data());
+    }
+    auto second = std::next(first);
+    if (problem.HasParameterBlock(second->second.data())) {
+      problem.SetManifold(second->second.data(), new ceres::SubsetManifold(2, {1}));
+    }
+    if (problem.HasParameterBlock(plane_poses[p].data())) {
+      ordering->AddElementToGroup(plane_poses[p].data(), 1);
+    }
+  }
+  // Gauge: the reference camera is the world, and the anchor's origin sits at its depth.
+  problem.SetParameterBlockConstant(frame_poses[reference].data());
+  if (problem.HasParameterBlock(plane_poses[0].data())) {
+    problem.SetManifold(plane_poses[0].data(), new ceres::SubsetManifold(6, {5}));
+  }
+  for (int f : posed) {
+    if (problem.HasParameterBlock(frame_poses[f].data())) {
+      ordering->AddElementToGroup(frame_poses[f].data(), 1);
+    }
+  }
+
+  // Straight lines (box 2) and gravity at rest (box 7).
+  std::vector<const LineObservation*> lines;
+  for (const LineObservation& line : material.lines) {
+    if (line.points.size() >= 5) lines.push_back(&line);
+  }
+  PlumbLineBlocks line_blocks;
+  AddPlumbLineResiduals(lines, prior, options.loss_px, intrinsics.data(), &problem, ordering,
+                        &line_blocks);
+  result.lines_used = int(lines.size());
+  std::array<double, 3> down_world = {0.0, 1.0, 0.0};
+  bool down_set = false;
+  for (const GravityObservation& g : material.gravity) {
+    if (g.frame < 0 || g.frame >= material.frame_count || !structure.cam_from_world[g.frame]) {
+      continue;
+    }
+    if (!down_set) {
+      const Eigen::Vector3d d =
+          structure.cam_from_world[g.frame]->rotation().transpose() * g.down_cam.normalized();
+      down_world = {d.x(), d.y(), d.z()};
+      down_set = true;
+    }
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GravityCost, 3, 6, 3>(
+                                 new GravityCost(g.down_cam.normalized(),
+                                                 180.0 / M_PI / g.sigma_deg)),
+                             nullptr, frame_poses[g.frame].data(), down_world.data());
+  }
+  if (down_set) {
+    problem.SetManifold(down_world.data(), new ceres::SphereManifold<3>());
+    ordering->AddElementToGroup(down_world.data(), 1);
+  }
+
+  // Which intrinsics are free, and the weak prior on them.
+  std::vector<int> fixed;
+  if (!options.estimate_principal_point) fixed.insert(fixed.end(), {kCx, kCy});
+  if (!options.estimate_distortion) fixed.insert(fixed.end(), {kK1, kK2});
+  if (!options.estimate_tangential) fixed.insert(fixed.end(), {kP1, kP2});
+  if (!options.estimate_k3) fixed.push_back(kK3);
+  std::array<double, kNumIntrinsics> weight{};
+  weight[kFx] = 1.0 / (options.prior_focal_fraction * prior.fx);
+  weight[kFy] = 1.0 / (options.prior_focal_fraction * prior.fy);
+  weight[kCx] = weight[kCy] = 1.0 / options.prior_principal_px;
+  weight[kK1] = weight[kK2] = weight[kP1] = weight[kP2] = weight[kK3] =
+      1.0 / options.prior_distortion;
+  for (int i : fixed) weight[i] = 0.0;
+  problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, kNumIntrinsics, kNumIntrinsics>(
+                               new PriorCost(prior.Packed(), weight)),
+                           nullptr, intrinsics.data());
+  if (!fixed.empty()) {
+    problem.SetManifold(intrinsics.data(), new ceres::SubsetManifold(kNumIntrinsics, fixed));
+  }
+  ordering->AddElementToGroup(intrinsics.data(), 1);
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+  solver_options.linear_solver_ordering.reset(ordering);
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.num_threads = 2;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver_options, &problem, &summary);
+  if (!summary.IsSolutionUsable()) return no_update("the solver failed: " + summary.BriefReport());
+
+  const CameraIntrinsics estimate =
+      CameraIntrinsics::FromPacked(intrinsics, prior.width, prior.height);
+  double sum_sq = 0.0;
+  for (const Residual& r : residuals) {
+    double e[2];
+    PlanePointCost(r.pixel)(intrinsics.data(), frame_poses[r.frame].data(),
+                            plane_poses[r.plane].data(), plane_points[r.plane][r.point].data(), e);
+    sum_sq += e[0] * e[0] + e[1] * e[1];
+  }
+  result.rms_px = std::sqrt(sum_sq / (2.0 * residuals.size()));
+  result.frames_used = int(posed.size());
+  result.cam_from_world.resize(material.frame_count);
+  for (int f : posed) result.cam_from_world[f] = ToIsometry(frame_poses[f]);
+
+  // The covariance says whether the material pins the intrinsics down (it does not under
+  // pure translation, rotation about the optical axis, a single fronto-parallel view...).
+  for (int i = 0; i < kNumIntrinsics; ++i) {
+    if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) result.free_parameters.push_back(i);
+  }
+  ceres::Covariance::Options covariance_options;
+  ceres::Covariance covariance(covariance_options);
+  const std::vector<std::pair<const double*, const double*>> block = {
+      {intrinsics.data(), intrinsics.data()}};
+  if (!covariance.Compute(block, &problem)) {
+    return no_update("the material does not constrain the intrinsics (singular covariance)");
+  }
+  Eigen::Matrix<double, kNumIntrinsics, kNumIntrinsics, Eigen::RowMajor> full;
+  covariance.GetCovarianceBlock(intrinsics.data(), intrinsics.data(), full.data());
+  // Ceres assumes unit residual variance; the residuals are pixels with the RMS found.
+  const double variance = std::max(result.rms_px * result.rms_px, 1e-4);
+  const size_t n = result.free_parameters.size();
+  result.covariance.resize(n, n);
+  for (size_t a = 0; a < n; ++a) {
+    for (size_t b = 0; b < n; ++b) {
+      result.covariance(a, b) =
+          variance * full(result.free_parameters[a], result.free_parameters[b]);
+    }
+  }
+  const double focal_sigma = std::sqrt(variance * full(kFx, kFx)) / estimate.fx;
+  result.estimate = estimate;
+  if (focal_sigma > options.max_focal_sigma) {
+    std::ostringstream why;
+    why.precision(2);
+    why << std::fixed << "focal length not observable (sigma " << 100 * focal_sigma << "%, "
+        << 100 * options.max_focal_sigma << "% allowed)";
+    result.estimate = prior;
+    return no_update(why.str());
+  }
+  result.usable = true;
+  std::ostringstream report;
+  report.precision(4);
+  report << "fx " << estimate.fx << " fy " << estimate.fy << " cx " << estimate.cx << " cy "
+         << estimate.cy << " k1 " << estimate.k1 << " k2 " << estimate.k2 << "; rms "
+         << result.rms_px << " px over " << result.observations_used << " observations of "
+         << result.points_used << " points on " << result.planes_used << " planes in "
+         << result.frames_used << " frames, " << result.lines_used << " lines, rotation spread "
+         << result.rotation_spread_deg << " deg";
+  result.reason = report.str();
+  return result;
+}
+
+}  // namespace autocal

@@ -1,0 +1,92 @@
+// Box 10: self-calibrating Levenberg-Marquardt. Intrinsics, distortion, every dominant
+// plane's pose, every frame's pose and every tracked point's coordinates in its plane,
+// estimated jointly from the REAL tracks of the planes (box 9), with plumb-line residuals
+// from box 2, gravity residuals where the body is at rest, and a weak prior from the last
+// accepted calibration. A plane seen from several orientations fixes the intrinsics
+// (Triggs 1998, Zhang 2000); nothing here is measured on anything rendered with the
+// current calibration, so a wrong start converges to the truth instead of staying put.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "pipeline/camera_model.h"
+#include "pipeline/plumb_line.h"
+
+namespace autocal {
+
+// One tracked point of a plane, seen in one frame (pixels, distorted image).
+struct PlaneObservation {
+  int frame = 0;  // 0 .. CalibrationMaterial::frame_count - 1.
+  int point = 0;  // Track id, unique within the plane.
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+};
+
+// A dominant plane and the real tracks on it.
+struct PlaneTrack {
+  int id = 0;
+  std::vector<PlaneObservation> observations;
+};
+
+// The direction of gravity ("down") in a frame's camera frame, from the accelerometer
+// while the body is at rest.
+struct GravityObservation {
+  int frame = 0;
+  Eigen::Vector3d down_cam = Eigen::Vector3d::UnitY();  // Unit vector.
+  double sigma_deg = 0.5;
+};
+
+// Everything one calibration attempt draws on, over a window of frames.
+struct CalibrationMaterial {
+  int frame_count = 0;
+  std::vector<PlaneTrack> planes;
+  std::vector<LineObservation> lines;  // Snake shapes: straight world lines.
+  std::vector<GravityObservation> gravity;
+};
+
+struct SelfCalibrationOptions {
+  bool estimate_principal_point = true;  // cx, cy free.
+  bool estimate_distortion = true;       // k1, k2 free.
+  bool estimate_k3 = false;              // k3 free too.
+  bool estimate_tangential = false;      // p1, p2 free too.
+  double loss_px = 1.0;                  // Cauchy loss scale on reprojection errors.
+  double prior_focal_fraction = 0.1;     // Prior sigma of fx, fy as a fraction of them.
+  double prior_principal_px = 30.0;      // Prior sigma of cx, cy.
+  double prior_distortion = 0.2;         // Prior sigma of each distortion coefficient.
+  int min_frames = 6;                    // Fewer frames with a pose: no update.
+  int min_points_per_plane = 12;         // Planes with fewer tracked points are left out.
+  double min_rotation_deg = 8.0;         // Views must differ by this much in orientation.
+  double max_focal_sigma = 0.01;         // No update when sigma(fx) / fx exceeds this.
+  int max_iterations = 100;              // Levenberg-Marquardt iterations.
+
+  bool Check(std::string* error) const;
+};
+
+struct SelfCalibrationResult {
+  bool usable = false;
+  std::string reason;        // Why not ("no update: insufficient rotation ..."), or a report.
+  CameraIntrinsics estimate;
+  // Covariance of the free intrinsics, in the order of `free_parameters` (IntrinsicIndex).
+  Eigen::MatrixXd covariance;
+  std::vector<int> free_parameters;
+  double rms_px = 0.0;       // Reprojection RMS of the plane tracks.
+  double rotation_spread_deg = 0.0;  // Largest angle between two views' orientations.
+  int frames_used = 0;
+  int planes_used = 0;
+  int points_used = 0;
+  int observations_used = 0;
+  int lines_used = 0;
+  // Per frame: the camera pose in the window's world (the reference camera), scale set by
+  // the first plane's first point at depth 1; empty for frames left out.
+  std::vector<std::optional<Eigen::Isometry3d>> cam_from_world;
+};
+
+SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
+                                    const CameraIntrinsics& prior,
+                                    const SelfCalibrationOptions& options);
+
+}  // namespace autocal

@@ -1,0 +1,231 @@
+#include "pipeline/self_calibration.h"
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+namespace autocal {
+namespace {
+
+CameraIntrinsics Truth() {
+  CameraIntrinsics c;
+  c.width = 640;
+  c.height = 480;
+  c.fx = 427.0;
+  c.fy = 427.8;
+  c.cx = 322.5;
+  c.cy = 237.0;
+  c.k1 = -0.3;
+  c.k2 = 0.1;
+  return c;
+}
+
+// The start the issue asks for: focal 5% long, principal point off, no distortion.
+CameraIntrinsics WrongStart() {
+  CameraIntrinsics c = Truth();
+  c.fx *= 1.05;
+  c.fy *= 1.05;
+  c.cx += 15.0;
+  c.cy -= 10.0;
+  c.k1 = c.k2 = 0.0;
+  return c;
+}
+
+// Camera looking along body x (forward), body z up: OpenCV axes in the body frame.
+Eigen::Matrix3d BodyFromCam() {
+  Eigen::Matrix3d m;
+  m.col(0) = -Eigen::Vector3d::UnitY();
+  m.col(1) = -Eigen::Vector3d::UnitZ();
+  m.col(2) = Eigen::Vector3d::UnitX();
+  return m;
+}
+
+Eigen::Isometry3d CamFromWorld(const Eigen::Vector3d& position, double yaw_deg, double pitch_deg,
+                               double roll_deg) {
+  const double d = M_PI / 180;
+  const Eigen::Matrix3d world_from_body =
+      (Eigen::AngleAxisd(yaw_deg * d, Eigen::Vector3d::UnitZ()) *
+       Eigen::AngleAxisd(pitch_deg * d, Eigen::Vector3d::UnitY()) *
+       Eigen::AngleAxisd(roll_deg * d, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  Eigen::Isometry3d world_from_cam = Eigen::Isometry3d::Identity();
+  world_from_cam.linear() = world_from_body * BodyFromCam();
+  world_from_cam.translation() = position;
+  return world_from_cam.inverse();
+}
+
+// A corner of a room: the floor and two walls, textured with random points, and a few
+// straight edges.
+struct Room {
+  std::vector<std::vector<Eigen::Vector3d>> planes;
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> edges;
+};
+
+Room MakeRoom(cv::RNG& rng) {
+  Room room;
+  room.planes.resize(3);
+  for (int i = 0; i < 80; ++i) {
+    room.planes[0].emplace_back(rng.uniform(0.5, 6.0), rng.uniform(-3.0, 3.0), 0.0);  // Floor.
+    room.planes[1].emplace_back(6.0, rng.uniform(-3.0, 3.0), rng.uniform(0.0, 2.8));  // Wall.
+    room.planes[2].emplace_back(rng.uniform(0.5, 6.0), 3.0, rng.uniform(0.0, 2.8));   // Wall.
+  }
+  room.edges = {{{6, -3, 0}, {6, 3, 0}},   {{0.5, 3, 0}, {6, 3, 0}}, {{6, 3, 0}, {6, 3, 2.8}},
+                {{6, -3, 2.8}, {6, 3, 2.8}}, {{6, -1, 0}, {6, -1, 2.1}}, {{6, 0, 2.1}, {6, -1, 2.1}},
+                {{2, 3, 0.2}, {2, 3, 2.0}},    {{4, 3, 0.9}, {5.5, 3, 0.9}}};
+  return room;
+}
+
+// What the pipeline's boxes 6 and 9 would hand over: the real tracks of each plane in
+// every frame (with pixel noise), snake shapes along the edges, gravity at rest.
+CalibrationMaterial Observe(const Room& room, const std::vector<Eigen::Isometry3d>& poses,
+                            const CameraIntrinsics& lens, double noise_px, cv::RNG& rng) {
+  CalibrationMaterial material;
+  material.frame_count = int(poses.size());
+  auto visible = [&](const Eigen::Vector3d& cam, Eigen::Vector2d* pixel) {
+    if (cam.z() < 0.3) return false;
+    *pixel = Project(lens, cam);
+    return pixel->x() > 2 && pixel->y() > 2 && pixel->x() < lens.width - 3 &&
+           pixel->y() < lens.height - 3;
+  };
+  for (size_t p = 0; p < room.planes.size(); ++p) {
+    PlaneTrack track;
+    track.id = int(p) + 1;
+    for (size_t f = 0; f < poses.size(); ++f) {
+      for (size_t j = 0; j < room.planes[p].size(); ++j) {
+        Eigen::Vector2d pixel;
+        if (!visible(poses[f] * room.planes[p][j], &pixel)) continue;
+        pixel += Eigen::Vector2d(rng.gaussian(noise_px), rng.gaussian(noise_px));
+        track.observations.push_back({int(f), int(j), pixel});
+      }
+    }
+    material.planes.push_back(track);
+  }
+  for (size_t f = 0; f < poses.size(); f += 4) {
+    for (const auto& [a, b] : room.edges) {
+      LineObservation line;
+      for (double s = 0; s <= 1.0; s += 0.02) {
+        Eigen::Vector2d pixel;
+        if (visible(poses[f] * (a + s * (b - a)), &pixel)) {
+          line.points.push_back(pixel + Eigen::Vector2d(rng.gaussian(0.1), rng.gaussian(0.1)));
+        }
+      }
+      if (line.points.size() >= 8) material.lines.push_back(line);
+    }
+    material.gravity.push_back({int(f), poses[f].rotation() * -Eigen::Vector3d::UnitZ(), 0.5});
+  }
+  return material;
+}
+
+std::vector<Eigen::Isometry3d> Walk(const std::function<Eigen::Isometry3d(double)>& pose_at,
+                                    int frames) {
+  std::vector<Eigen::Isometry3d> poses;
+  for (int f = 0; f < frames; ++f) poses.push_back(pose_at(f));
+  return poses;
+}
+
+// Looking about the corner while walking toward it: views of each plane from many
+// orientations.
+Eigen::Isometry3d LookingAbout(double f) {
+  return CamFromWorld({0.04 * f, -0.5 + 0.4 * std::sin(f / 9), 1.4 + 0.03 * std::sin(f)},
+                      25 + 22 * std::sin(f / 7), -18 + 10 * std::sin(f / 5), 6 * std::sin(f / 4));
+}
+
+TEST(SelfCalibration, DefaultOptionsAreValid) {
+  std::string error;
+  EXPECT_TRUE(SelfCalibrationOptions().Check(&error)) << error;
+  SelfCalibrationOptions bad;
+  bad.min_points_per_plane = 2;
+  EXPECT_FALSE(bad.Check(&error));
+  EXPECT_NE(error.find("min_points_per_plane"), std::string::npos);
+}
+
+// The test that rules out a circular estimator: from a wrong calibration, the real tracks
+// bring it to the truth.
+TEST(SelfCalibration, ConvergesFromAWrongStartToTheTruth) {
+  cv::RNG rng(4);
+  const Room room = MakeRoom(rng);
+  const CameraIntrinsics truth = Truth();
+  const CalibrationMaterial material = Observe(room, Walk(LookingAbout, 40), truth, 0.5, rng);
+  const SelfCalibrationResult result = SelfCalibrate(material, WrongStart(), {});
+  std::printf("%s\n", result.reason.c_str());
+  ASSERT_TRUE(result.usable) << result.reason;
+  const CameraIntrinsics& e = result.estimate;
+  EXPECT_NEAR(e.fx / truth.fx, 1.0, 0.005) << "fx within 0.5%";
+  EXPECT_NEAR(e.fy / truth.fy, 1.0, 0.005) << "fy within 0.5%";
+  EXPECT_NEAR(e.cx, truth.cx, 2.0);
+  EXPECT_NEAR(e.cy, truth.cy, 2.0);
+  // The distortion alone: the estimated coefficients on the true pinhole.
+  CameraIntrinsics distortion_only = truth;
+  distortion_only.k1 = e.k1;
+  distortion_only.k2 = e.k2;
+  EXPECT_LT(MaxDistortionDifference(distortion_only, truth, 0.9), 0.5)
+      << "px, out to 90% of the half-diagonal";
+  EXPECT_LT(MaxDistortionDifference(e, truth, 0.9), 1.0) << "px, the whole lens model";
+  EXPECT_LT(result.rms_px, 0.6) << "reprojection RMS with 0.5 px noise";
+  ASSERT_EQ(result.covariance.rows(), 6);  // fx fy cx cy k1 k2
+  EXPECT_LT(std::sqrt(result.covariance(0, 0)), 0.005 * truth.fx) << "fx sigma";
+}
+
+// Planes seen from several orientations fix the intrinsics on their own (Triggs, Zhang):
+// no straight lines, no gravity.
+TEST(SelfCalibration, PlaneTracksAloneFixTheIntrinsics) {
+  cv::RNG rng(8);
+  const Room room = MakeRoom(rng);
+  CalibrationMaterial material = Observe(room, Walk(LookingAbout, 40), Truth(), 0.5, rng);
+  material.lines.clear();
+  material.gravity.clear();
+  const SelfCalibrationResult result = SelfCalibrate(material, WrongStart(), {});
+  ASSERT_TRUE(result.usable) << result.reason;
+  EXPECT_NEAR(result.estimate.fx / Truth().fx, 1.0, 0.005);
+  EXPECT_NEAR(result.estimate.cx, Truth().cx, 2.0);
+  EXPECT_NEAR(result.estimate.cy, Truth().cy, 2.0);
+  EXPECT_NEAR(result.estimate.k1, Truth().k1, 0.01);
+}
+
+TEST(SelfCalibration, StaticCameraGivesNoUpdate) {
+  cv::RNG rng(5);
+  const Room room = MakeRoom(rng);
+  const auto still = [](double) { return CamFromWorld({1, -0.5, 1.4}, 30, -15, 0); };
+  const CalibrationMaterial material = Observe(room, Walk(still, 30), Truth(), 0.5, rng);
+  const SelfCalibrationResult result = SelfCalibrate(material, WrongStart(), {});
+  EXPECT_FALSE(result.usable);
+  EXPECT_NE(result.reason.find("no update"), std::string::npos) << result.reason;
+  EXPECT_EQ(result.estimate, WrongStart()) << "no update leaves the calibration alone";
+}
+
+TEST(SelfCalibration, PureTranslationGivesNoUpdate) {
+  cv::RNG rng(6);
+  const Room room = MakeRoom(rng);
+  const auto sliding = [](double f) { return CamFromWorld({0.05 * f, -0.5 + 0.02 * f, 1.4}, 30, -15, 0); };
+  const SelfCalibrationResult result =
+      SelfCalibrate(Observe(room, Walk(sliding, 30), Truth(), 0.5, rng), WrongStart(), {});
+  EXPECT_FALSE(result.usable);
+  EXPECT_NE(result.reason.find("insufficient rotation"), std::string::npos) << result.reason;
+}
+
+TEST(SelfCalibration, RotationAboutTheOpticalAxisGivesNoUpdate) {
+  cv::RNG rng(7);
+  const Room room = MakeRoom(rng);
+  // Turning only about the optical axis (the camera looks along world x here).
+  const auto rolling = [](double f) { return CamFromWorld({1, 0, 1.4}, 0, 0, 1.5 * f); };
+  const SelfCalibrationResult result =
+      SelfCalibrate(Observe(room, Walk(rolling, 30), Truth(), 0.5, rng), WrongStart(), {});
+  EXPECT_FALSE(result.usable) << result.reason;
+  EXPECT_NE(result.reason.find("not observable"), std::string::npos) << result.reason;
+}
+
+TEST(SelfCalibration, TooFewTracksGiveNoUpdate) {
+  CalibrationMaterial material;
+  material.frame_count = 10;
+  material.planes.push_back({1, {{0, 1, {100, 100}}, {1, 1, {101, 100}}}});
+  const SelfCalibrationResult result = SelfCalibrate(material, Truth(), {});
+  EXPECT_FALSE(result.usable);
+  EXPECT_NE(result.reason.find("no plane with"), std::string::npos) << result.reason;
+}
+
+}  // namespace
+}  // namespace autocal
