@@ -515,6 +515,14 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   result.frames_used = int(posed.size());
   result.cam_from_world.resize(material.frame_count);
   for (int f : posed) result.cam_from_world[f] = ToIsometry(frame_poses[f]);
+  for (size_t p = 0; p < tracks.size(); ++p) {
+    if (!problem.HasParameterBlock(plane_poses[p].data())) continue;
+    PlaneEstimate plane;
+    plane.id = used[p]->id;
+    plane.world_from_plane = ToIsometry(plane_poses[p]);
+    for (const auto& [id, uv] : plane_points[p]) plane.points.emplace_back(id, Eigen::Vector2d(uv[0], uv[1]));
+    result.planes.push_back(std::move(plane));
+  }
 
   // The covariance says whether the material pins the intrinsics down (it does not under
   // pure translation, rotation about the optical axis, a single fronto-parallel view...).

@@ -66,6 +66,14 @@ struct SelfCalibrationOptions {
   bool Check(std::string* error) const;
 };
 
+// A plane as the calibration placed it: its frame in the window's world (x, y in the plane,
+// z its normal), and its tracked points' coordinates in that frame.
+struct PlaneEstimate {
+  int id = 0;
+  Eigen::Isometry3d world_from_plane = Eigen::Isometry3d::Identity();
+  std::vector<std::pair<int, Eigen::Vector2d>> points;  // (track id, (u, v)).
+};
+
 struct SelfCalibrationResult {
   bool usable = false;
   std::string reason;        // Why not ("no update: insufficient rotation ..."), or a report.
@@ -83,6 +91,7 @@ struct SelfCalibrationResult {
   // Per frame: the camera pose in the window's world (the reference camera), scale set by
   // the first plane's first point at depth 1; empty for frames left out.
   std::vector<std::optional<Eigen::Isometry3d>> cam_from_world;
+  std::vector<PlaneEstimate> planes;
 };
 
 SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,

@@ -1,4 +1,5 @@
 #include "pipeline/self_calibration.h"
+#include "pipeline/virtual_board.h"
 
 #include <cmath>
 #include <cstdio>
@@ -184,6 +185,59 @@ TEST(SelfCalibration, PlaneTracksAloneFixTheIntrinsics) {
   EXPECT_NEAR(result.estimate.cx, Truth().cx, 2.0);
   EXPECT_NEAR(result.estimate.cy, Truth().cy, 2.0);
   EXPECT_NEAR(result.estimate.k1, Truth().k1, 0.01);
+}
+
+// Box 8: a virtual board attached to a plane sticks to the plane's real texture when drawn
+// with the estimated calibration, and slides off it with the wrong one it started from.
+TEST(SelfCalibration, VirtualBoardSticksWithTheEstimateAndSlidesWithoutIt) {
+  cv::RNG rng(4);
+  const Room room = MakeRoom(rng);
+  const std::vector<Eigen::Isometry3d> poses = Walk(LookingAbout, 40);
+  const CalibrationMaterial material = Observe(room, poses, Truth(), 0.5, rng);
+  const SelfCalibrationResult result = SelfCalibrate(material, WrongStart(), {});
+  ASSERT_TRUE(result.usable) << result.reason;
+  ASSERT_FALSE(result.planes.empty());
+  const PlaneEstimate& plane = result.planes.front();
+  std::vector<Eigen::Vector2d> uv;
+  for (const auto& [id, point] : plane.points) uv.push_back(point);
+  const VirtualBoardOptions options;
+  const VirtualBoard board = AttachBoard(plane.id, plane.world_from_plane, uv, options);
+  // The board corner on the first tracked point, and where that point truly is.
+  const int first_track = plane.points.front().first;
+  const Eigen::Vector3d true_point = room.planes[plane.id - 1][first_track];
+  int i0 = -1, j0 = -1;
+  for (int j = 0; j <= board.squares_y; ++j) {
+    for (int i = 0; i <= board.squares_x; ++i) {
+      const Eigen::Vector3d corner = board.Corner(i, j);
+      if ((corner - plane.world_from_plane * Eigen::Vector3d(uv[0].x(), uv[0].y(), 0)).norm() < 1e-9) {
+        i0 = i;
+        j0 = j;
+      }
+    }
+  }
+  ASSERT_GE(i0, 0) << "a corner sits on the first tracked point";
+  double worst_estimate = 0.0, worst_start = 0.0;
+  int frames = 0;
+  for (size_t f = 0; f < poses.size(); ++f) {
+    if (!result.cam_from_world[f]) continue;
+    const Eigen::Vector3d in_true_cam = poses[f] * true_point;
+    if (in_true_cam.z() < 0.3) continue;
+    const Eigen::Vector2d truth = Project(Truth(), in_true_cam);
+    if (truth.x() < 0 || truth.y() < 0 || truth.x() > 639 || truth.y() > 479) continue;
+    const BoardProjection drawn = ProjectBoard(board, *result.cam_from_world[f], result.estimate, options);
+    const BoardProjection slid = ProjectBoard(board, *result.cam_from_world[f], WrongStart(), options);
+    const size_t k = size_t(j0 * (board.squares_x + 1) + i0);
+    ASSERT_LT(k, drawn.corners.size());
+    worst_estimate = std::max(worst_estimate, (drawn.corners[k] - truth).norm());
+    worst_start = std::max(worst_start, (slid.corners[k] - truth).norm());
+    ++frames;
+    EXPECT_GT(drawn.lines.size(), size_t(board.squares_x + board.squares_y));
+  }
+  std::printf("board corner vs the real point over %d frames: %.2f px with the estimate, %.1f px "
+              "with the start\n", frames, worst_estimate, worst_start);
+  EXPECT_GT(frames, 5);
+  EXPECT_LT(worst_estimate, 1.0);
+  EXPECT_GT(worst_start, 10.0);
 }
 
 TEST(SelfCalibration, StaticCameraGivesNoUpdate) {
