@@ -28,8 +28,8 @@ std::optional<int> Parse(QCommandLineParser& parser, const QString& name,
                          const QStringList& arguments) {
   parser.addHelpOption();
   if (!parser.parse(QStringList{"autocal " + name} + arguments)) {
-    std::fprintf(stderr, "autocal %s: %s\n\n%s", qPrintable(name),
-                 qPrintable(parser.errorText()), qPrintable(parser.helpText()));
+    std::fprintf(stderr, "autocal %s: %s\n\n%s", qPrintable(name), qPrintable(parser.errorText()),
+                 qPrintable(parser.helpText()));
     return 2;
   }
   if (parser.isSet("help")) {
@@ -49,7 +49,9 @@ int UsageError(const QString& name, const QString& message, const QCommandLinePa
 class ProgressPrinter {
  public:
   ProgressPrinter(const char* what, const char* unit)
-      : what_(what), unit_(unit), tty_(isatty(STDERR_FILENO)),
+      : what_(what),
+        unit_(unit),
+        tty_(isatty(STDERR_FILENO)),
         start_(std::chrono::steady_clock::now()) {}
 
   bool operator()(size_t done, size_t total) {
@@ -183,8 +185,10 @@ int Distortion(const QStringList& arguments) {
       {"images", "Image files: a glob pattern such as 'shots/*.png' (repeatable).", "glob"},
       {"prior", "Calibration to start from (OpenCV YAML or JSON); its focal length is held.",
        "file"},
-      {"fov", "Without --prior: horizontal field of view assumed for the focal length, "
-              "in degrees (the pixel-space distortion does not depend on it).", "deg", "75"},
+      {"fov",
+       "Without --prior: horizontal field of view assumed for the focal length, "
+       "in degrees (the pixel-space distortion does not depend on it).",
+       "deg", "75"},
       {"summary", "Write a JSON summary here.", "file"},
       {"out", "Write the calibration with the estimated distortion here.", "file"},
       {"format", "Format of --out: opencv or json (default: from the extension).", "name"},
@@ -225,11 +229,13 @@ int Distortion(const QStringList& arguments) {
     } else {
       bool ok = false;
       const double fov = parser.value("fov").toDouble(&ok);
-      if (!ok || fov <= 1 || fov >= 179) return UsageError(name, "--fov takes degrees in (1, 179)", parser);
+      if (!ok || fov <= 1 || fov >= 179)
+        return UsageError(name, "--fov takes degrees in (1, 179)", parser);
       prior = CameraIntrinsics::FromFieldOfView(first.cols, first.rows, fov);
       focal_source = "assumed from a " + parser.value("fov").toStdString() +
                      " degree field of view (no --prior)";
-      std::fprintf(stderr, "autocal distortion: no --prior: focal length %s\n", focal_source.c_str());
+      std::fprintf(stderr, "autocal distortion: no --prior: focal length %s\n",
+                   focal_source.c_str());
     }
 
     LensOptions options;
@@ -244,9 +250,10 @@ int Distortion(const QStringList& arguments) {
       const cv::Mat image = i == 0 ? first : cv::imread(files[i], cv::IMREAD_COLOR);
       if (image.empty()) throw Error(files[i], 0, "cannot decode as an image");
       if (image.size() != first.size()) {
-        throw Error(files[i], 0, "image is " + std::to_string(image.cols) + "x" +
-                                     std::to_string(image.rows) + ", the first was " +
-                                     std::to_string(first.cols) + "x" + std::to_string(first.rows));
+        throw Error(files[i], 0,
+                    "image is " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                        ", the first was " + std::to_string(first.cols) + "x" +
+                        std::to_string(first.rows));
       }
       const LensSnapshot snapshot = stage.ProcessStill(image, prior);
       lines_found += snapshot.lines.size();
@@ -261,22 +268,24 @@ int Distortion(const QStringList& arguments) {
       cv::FileStorage summary(path, cv::FileStorage::WRITE | cv::FileStorage::FORMAT_JSON);
       if (!summary.isOpened()) throw Error(path, 0, "cannot write the summary");
       const CameraIntrinsics& e = result.estimate;
-      summary << "images" << int(files.size()) << "lines_found" << int(lines_found)
-              << "snakes" << int(snakes) << "usable" << result.usable << "message"
-              << result.message << "focal_length_source" << focal_source << "lines_used"
-              << result.lines_used << "lines_rejected" << result.lines_rejected << "points_used"
-              << result.points_used << "rms_before_px" << result.rms_before_px << "rms_after_px"
-              << result.rms_after_px << "estimate" << "{" << "image_width" << e.width
-              << "image_height" << e.height << "fx" << e.fx << "fy" << e.fy << "cx" << e.cx
-              << "cy" << e.cy << "k1" << e.k1 << "k2" << e.k2 << "p1" << e.p1 << "p2" << e.p2
-              << "k3" << e.k3 << "}";
+      summary << "images" << int(files.size()) << "lines_found" << int(lines_found) << "snakes"
+              << int(snakes) << "usable" << result.usable << "message" << result.message
+              << "focal_length_source" << focal_source << "lines_used" << result.lines_used
+              << "lines_rejected" << result.lines_rejected << "points_used" << result.points_used
+              << "rms_before_px" << result.rms_before_px << "rms_after_px" << result.rms_after_px
+              << "estimate"
+              << "{"
+              << "image_width" << e.width << "image_height" << e.height << "fx" << e.fx << "fy"
+              << e.fy << "cx" << e.cx << "cy" << e.cy << "k1" << e.k1 << "k2" << e.k2 << "p1"
+              << e.p1 << "p2" << e.p2 << "k3" << e.k3 << "}";
     }
     if (!result.usable) return 1;
     if (parser.isSet("out")) {
       const std::string out = parser.value("out").toStdString();
       const std::string format =
-          parser.isSet("format") ? parser.value("format").toStdString()
-                                 : (QString::fromStdString(out).endsWith(".json") ? "json" : "opencv");
+          parser.isSet("format")
+              ? parser.value("format").toStdString()
+              : (QString::fromStdString(out).endsWith(".json") ? "json" : "opencv");
       WriteCalibration(out, result.estimate, CalibrationFormatFromName(format));
     }
     return 0;

@@ -27,7 +27,8 @@ const Clip& OfficeClip(int width, int height) {
   if (!clip.frames.empty()) return clip;
   Scenario scenario = LoadScenario("office");
   ApplyScenarioOverride(&scenario, "lens", "sonnar");
-  ApplyScenarioOverride(&scenario, "resolution", std::to_string(width) + "x" + std::to_string(height));
+  ApplyScenarioOverride(&scenario, "resolution",
+                        std::to_string(width) + "x" + std::to_string(height));
   ApplyScenarioOverride(&scenario, "seconds", std::to_string(kFrames / scenario.fps));
   const auto sequence = MakeSimulatedSequence(scenario);
   for (size_t i = 0; i < sequence->frame_count(); ++i) {
@@ -54,7 +55,10 @@ void BM_LensBoxes(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
   state.SetLabel("items/s = frames/s");
 }
-BENCHMARK(BM_LensBoxes)->Args({320, 240})->Args({640, 480})->Args({1280, 720})
+BENCHMARK(BM_LensBoxes)
+    ->Args({320, 240})
+    ->Args({640, 480})
+    ->Args({1280, 720})
     ->Unit(benchmark::kMillisecond);
 
 void BM_DistortionEstimate(benchmark::State& state) {

@@ -42,8 +42,8 @@ bool CameraIntrinsics::Check(std::string* error) const {
     why << "focal lengths must be positive and finite, got fx=" << fx << " fy=" << fy;
   } else if (!std::isfinite(cx) || !std::isfinite(cy)) {
     why << "principal point must be finite";
-  } else if (!std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(p1) ||
-             !std::isfinite(p2) || !std::isfinite(k3)) {
+  } else if (!std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(p1) || !std::isfinite(p2) ||
+             !std::isfinite(k3)) {
     why << "distortion coefficients must be finite";
   }
   if (why.str().empty()) return true;
@@ -68,7 +68,6 @@ Eigen::Vector2d Project(const CameraIntrinsics& camera, const Eigen::Vector3d& p
   ProjectPoint(packed.data(), point_cam.data(), pixel.data());
   return pixel;
 }
-
 
 std::optional<Eigen::Vector2d> UndistortNormalized(const std::array<double, 5>& dist,
                                                    const Eigen::Vector2d& distorted,

@@ -17,8 +17,8 @@ namespace autocal {
 enum IntrinsicIndex { kFx = 0, kFy, kCx, kCy, kK1, kK2, kP1, kP2, kK3, kNumIntrinsics };
 
 struct CameraIntrinsics {
-  int width = 0;   // Image width in pixels.
-  int height = 0;  // Image height in pixels.
+  int width = 0;              // Image width in pixels.
+  int height = 0;             // Image height in pixels.
   double fx = 0.0, fy = 0.0;  // Focal lengths in pixels.
   double cx = 0.0, cy = 0.0;  // Principal point in pixels (pixel centres at integers).
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;  // Brown-Conrady, OpenCV order.

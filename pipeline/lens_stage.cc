@@ -12,7 +12,9 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
-Eigen::Vector2d Middle(const RadonSnake& snake) { return snake.vertices[snake.vertices.size() / 2]; }
+Eigen::Vector2d Middle(const RadonSnake& snake) {
+  return snake.vertices[snake.vertices.size() / 2];
+}
 
 }  // namespace
 
@@ -67,7 +69,8 @@ void LensStage::AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_siz
   const int orientation =
       std::clamp(int(4 * std::fmod(std::atan2(chord.y(), chord.x()) + M_PI, M_PI) / M_PI), 0, 3);
   const int columns = options_.pool_grid;
-  const int rows = std::max(1, int(std::lround(columns * double(image_size.height) / image_size.width)));
+  const int rows =
+      std::max(1, int(std::lround(columns * double(image_size.height) / image_size.width)));
   const int column = std::clamp(int(middle.x() * columns / image_size.width), 0, columns - 1);
   const int row = std::clamp(int(middle.y() * rows / image_size.height), 0, rows - 1);
   std::deque<LineObservation>& bin = pool_[(row * columns + column) * 4 + orientation];
@@ -118,7 +121,8 @@ LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,
                         [&](const RadonSnake& s) { return s.id == entry.first; });
   });
   for (const RadonSnake& snake : snapshot.snakes) {
-    if (snake.age > 0 && snake.age % options_.observe_every_frames == 0) Pool(snake, channel.size());
+    if (snake.age > 0 && snake.age % options_.observe_every_frames == 0)
+      Pool(snake, channel.size());
   }
   snapshot.lines_ms = MillisecondsSince(start);
 

@@ -29,9 +29,9 @@ struct LensOptions {
   // Shapes are kept per cell of a grid over the image and per orientation (4 bins), the
   // newest `pool_per_cell` in each, so the corners, where distortion shows most, are not
   // crowded out by the many shapes near the centre.
-  int pool_grid = 8;                      // Cells across the image (rows by aspect).
-  int pool_per_cell = 8;                  // Newest shapes kept per cell and orientation.
-  int estimate_every_frames = 30;         // Distortion re-estimated this often (frames).
+  int pool_grid = 8;               // Cells across the image (rows by aspect).
+  int pool_per_cell = 8;           // Newest shapes kept per cell and orientation.
+  int estimate_every_frames = 30;  // Distortion re-estimated this often (frames).
 
   // Checks this struct and every nested one; the message names the field.
   bool Check(std::string* error) const;
@@ -44,10 +44,10 @@ struct LensSnapshot {
   std::vector<RadonSnake> snakes;
   // The newest distortion estimate, if one was made on or before this frame.
   std::optional<PlumbLineResult> distortion;
-  int pooled_shapes = 0;     // Snake shapes the estimate draws on.
-  double lines_ms = 0.0;     // Box 1 (lines and snakes).
+  int pooled_shapes = 0;       // Snake shapes the estimate draws on.
+  double lines_ms = 0.0;       // Box 1 (lines and snakes).
   double distortion_ms = 0.0;  // Box 2 (0 on frames without an estimate).
-  double rectify_ms = 0.0;   // Box 3.
+  double rectify_ms = 0.0;     // Box 3.
 };
 
 class LensStage {

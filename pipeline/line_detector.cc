@@ -35,6 +35,16 @@ bool LineDetectorOptions::Check(std::string* error) const {
   return false;
 }
 
+std::pair<double, double> LineDistance(double rho_a, double theta_a, double rho_b, double theta_b) {
+  double dtheta = std::abs(std::remainder(theta_a - theta_b, 2 * M_PI));
+  double drho = std::abs(rho_a - rho_b);
+  if (dtheta > M_PI / 2) {
+    dtheta = std::abs(std::remainder(theta_a - theta_b + M_PI, 2 * M_PI));
+    drho = std::abs(rho_a + rho_b);
+  }
+  return {dtheta, drho};
+}
+
 Eigen::Vector2d LineSegment::Normal() const { return {std::cos(theta), std::sin(theta)}; }
 Eigen::Vector2d LineSegment::Direction() const { return {-std::sin(theta), std::cos(theta)}; }
 double LineSegment::Distance(const Eigen::Vector2d& p) const { return Normal().dot(p) - rho; }
@@ -80,7 +90,8 @@ bool LocateEdgeAlongNormal(const Gradients& gradients, const Eigen::Vector2d& po
   std::vector<double> strength(2 * n + 3);
   for (int k = -n - 1; k <= n + 1; ++k) {
     const double derivative = gradients.Directional(point + k * kStep * normal, normal);
-    strength[k + n + 1] = polarity == 0 ? std::abs(derivative) : std::max(0.0, polarity * derivative);
+    strength[k + n + 1] =
+        polarity == 0 ? std::abs(derivative) : std::max(0.0, polarity * derivative);
   }
   for (int k = -n; k <= n; ++k) {
     if (strength[k + n + 1] > best) {
@@ -123,19 +134,6 @@ namespace {
 // Peaks this close to a found segment's line are that line again.
 constexpr double kSameLineRadians = 2.0 * M_PI / 180.0;
 constexpr double kSameLinePx = 3.0;
-
-// Angle and offset between two (rho, theta) lines, allowing for the wrap
-// (rho, theta) == (-rho, theta + pi).
-std::pair<double, double> LineDistance(double rho_a, double theta_a, double rho_b,
-                                       double theta_b) {
-  double dtheta = std::abs(std::remainder(theta_a - theta_b, 2 * M_PI));
-  double drho = std::abs(rho_a - rho_b);
-  if (dtheta > M_PI / 2) {
-    dtheta = std::abs(std::remainder(theta_a - theta_b + M_PI, 2 * M_PI));
-    drho = std::abs(rho_a + rho_b);
-  }
-  return {dtheta, drho};
-}
 
 // An edge pixel near a line, and its position along the line.
 struct EdgePixel {
@@ -246,8 +244,9 @@ std::vector<LineSegment> DetectLines(const Gradients& gradients,
     const Eigen::Vector2d along(-std::sin(theta), std::cos(theta));
     const double margin = options.max_gap_px + 2.0;
     const double s_first = along.dot(first), s_last = along.dot(last);
-    pixels = CollectEdgePixels(edges, claimed, gradients, rho, theta, options, visits, ++stamp,
-                               std::min(s_first, s_last) - margin, std::max(s_first, s_last) + margin);
+    pixels =
+        CollectEdgePixels(edges, claimed, gradients, rho, theta, options, visits, ++stamp,
+                          std::min(s_first, s_last) - margin, std::max(s_first, s_last) + margin);
     if (int(pixels.size()) < min_votes) continue;
     const Eigen::Vector2d normal(std::cos(theta), std::sin(theta));
 
@@ -263,8 +262,8 @@ std::vector<LineSegment> DetectLines(const Gradients& gradients,
       std::vector<Eigen::Vector2d> points;
       for (size_t j = run_begin; j < i; ++j) {
         Eigen::Vector2d edge;
-        if (LocateEdgeAlongNormal(gradients, Eigen::Vector2d(pixels[j].x, pixels[j].y), normal,
-                                  1.0, 1.0, &edge) &&
+        if (LocateEdgeAlongNormal(gradients, Eigen::Vector2d(pixels[j].x, pixels[j].y), normal, 1.0,
+                                  1.0, &edge) &&
             std::abs(normal.dot(edge) - rho) <= options.inlier_distance_px) {
           points.push_back(edge);
         }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -11,16 +12,16 @@
 namespace autocal {
 
 struct LineDetectorOptions {
-  double canny_low = 30.0;              // Lower hysteresis threshold of the edge detector.
-  double canny_high = 90.0;             // Upper hysteresis threshold of the edge detector.
-  double theta_resolution_deg = 1.0;    // Angular bin of the Radon transform (refined after).
-  double rho_resolution_px = 1.0;       // Distance bin of the Radon transform.
-  double min_length_px = 40.0;          // Shortest segment reported.
-  double max_gap_px = 3.0;              // Longest run without edge pixels inside a segment.
-  double min_fill = 0.7;                // Fraction of a segment's length backed by edge pixels.
-  double inlier_distance_px = 1.5;      // Edge pixels this close to a line belong to it.
-  double max_normal_angle_deg = 20.0;   // Edge gradient must be this close to the line normal.
-  int max_lines = 30;                   // At most this many segments per image.
+  double canny_low = 30.0;             // Lower hysteresis threshold of the edge detector.
+  double canny_high = 90.0;            // Upper hysteresis threshold of the edge detector.
+  double theta_resolution_deg = 1.0;   // Angular bin of the Radon transform (refined after).
+  double rho_resolution_px = 1.0;      // Distance bin of the Radon transform.
+  double min_length_px = 40.0;         // Shortest segment reported.
+  double max_gap_px = 3.0;             // Longest run without edge pixels inside a segment.
+  double min_fill = 0.7;               // Fraction of a segment's length backed by edge pixels.
+  double inlier_distance_px = 1.5;     // Edge pixels this close to a line belong to it.
+  double max_normal_angle_deg = 20.0;  // Edge gradient must be this close to the line normal.
+  int max_lines = 30;                  // At most this many segments per image.
 
   bool Check(std::string* error) const;
 };
@@ -43,6 +44,10 @@ struct LineSegment {
 };
 
 class Gradients;
+
+// Angle (radians) and offset (px) between two lines x cos(theta) + y sin(theta) = rho,
+// allowing for the wrap (rho, theta) == (-rho, theta + pi).
+std::pair<double, double> LineDistance(double rho_a, double theta_a, double rho_b, double theta_b);
 
 // Finds straight segments in an 8-bit single-channel image.
 std::vector<LineSegment> DetectLines(const cv::Mat& gray, const LineDetectorOptions& options);

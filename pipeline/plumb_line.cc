@@ -187,8 +187,8 @@ PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observati
   Solve solve = SolveOnce(lines, initial, radial, coarse_loss);
   const bool richer = options.estimate_centre || options.estimate_tangential || options.estimate_k3;
   if (solve.converged && richer) {
-    solve = SolveOnce(lines, CameraIntrinsics::FromPacked(solve.intrinsics, initial.width,
-                                                          initial.height),
+    solve = SolveOnce(lines,
+                      CameraIntrinsics::FromPacked(solve.intrinsics, initial.width, initial.height),
                       options, coarse_loss);
   }
   if (solve.converged) {

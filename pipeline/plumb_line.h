@@ -32,15 +32,15 @@ struct LineObservation {
 };
 
 struct PlumbLineResult {
-  bool usable = false;       // False: not enough material or the solve failed.
-  std::string message;       // Why not usable, or a one-line report.
-  CameraIntrinsics estimate; // The initial camera with the estimated distortion.
+  bool usable = false;        // False: not enough material or the solve failed.
+  std::string message;        // Why not usable, or a one-line report.
+  CameraIntrinsics estimate;  // The initial camera with the estimated distortion.
   // RMS distance of the undistorted points to their best lines, px, with the initial and
   // the estimated distortion (all lines used for the estimate).
   double rms_before_px = 0.0;
   double rms_after_px = 0.0;
   int lines_used = 0;
-  int lines_rejected = 0;    // Curved in the world (or mistracked): left out.
+  int lines_rejected = 0;  // Curved in the world (or mistracked): left out.
   int points_used = 0;
   // Covariance of the free distortion coefficients, in the order k1, k2[, p1, p2][, k3].
   Eigen::MatrixXd covariance;

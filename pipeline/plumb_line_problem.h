@@ -5,9 +5,9 @@
 #include <array>
 #include <vector>
 
-#include <Eigen/Core>
-#include <ceres/problem.h>
 #include <ceres/ordered_groups.h>
+#include <ceres/problem.h>
+#include <Eigen/Core>
 
 #include "pipeline/camera_model.h"
 #include "pipeline/plumb_line.h"

@@ -15,19 +15,19 @@
 namespace autocal {
 
 struct SnakeOptions {
-  double spacing_px = 12.0;          // Length of one edge between hinges.
-  double search_px = 8.0;            // How far a snake may move along its normals per frame.
-  double min_edge_strength = 3.0;    // Weakest edge a hinge locks on, grey levels per px.
+  double spacing_px = 12.0;        // Length of one edge between hinges.
+  double search_px = 8.0;          // How far a snake may move along its normals per frame.
+  double min_edge_strength = 3.0;  // Weakest edge a hinge locks on, grey levels per px.
   // A hinge bending this much more or less than the snake's median bend has jumped to
   // another edge or turned a corner (lens bends change slowly along a line).
   double max_bend_change_deg = 2.5;
-  double min_length_px = 60.0;       // Snakes shorter than this are seeded neither kept.
-  int max_grow_per_frame = 4;        // Hinges added at each end per frame, at most.
-  double border_margin_px = 2.0;     // Hinges stay this far inside the image.
+  double min_length_px = 60.0;    // Snakes shorter than this are seeded neither kept.
+  int max_grow_per_frame = 4;     // Hinges added at each end per frame, at most.
+  double border_margin_px = 2.0;  // Hinges stay this far inside the image.
   // Only lines passing this close to the principal point seed snakes (fraction of the
   // half-diagonal): there the lens bends them least, so the Radon transform sees them.
   double seed_max_distance = 0.5;
-  int max_snakes = 24;               // Snakes tracked at once, at most.
+  int max_snakes = 24;  // Snakes tracked at once, at most.
 
   bool Check(std::string* error) const;
 };
@@ -41,7 +41,7 @@ struct RadonSnake {
   // Sign of the edge across the left normal at each hinge: +1 where the image brightens
   // to the left. It may alternate along a snake (a checkerboard's grid lines).
   std::vector<int> polarities;
-  int age = 0;                            // Frames tracked.
+  int age = 0;  // Frames tracked.
 
   // Bend at each inner vertex, degrees (vertices.size() - 2 values; signed).
   std::vector<double> BendAngles() const;

@@ -24,8 +24,8 @@ Rectifier::Rectifier(const RectifyOptions& options) { set_options(options); }
 
 void Rectifier::set_options(const RectifyOptions& options) {
   options_ = options;
-  clahe_ = cv::createCLAHE(options.clahe_clip_limit,
-                           cv::Size(options.clahe_tiles, options.clahe_tiles));
+  clahe_ =
+      cv::createCLAHE(options.clahe_clip_limit, cv::Size(options.clahe_tiles, options.clahe_tiles));
 }
 
 cv::Mat Rectifier::Channel(const cv::Mat& raw) const {

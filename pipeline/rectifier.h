@@ -21,11 +21,11 @@ enum class Equalization {
 };
 
 struct RectifyOptions {
-  bool undistort = true;                          // Remove lens distortion.
-  bool green_channel = true;                      // Geometry from green, not a grey mix.
+  bool undistort = true;      // Remove lens distortion.
+  bool green_channel = true;  // Geometry from green, not a grey mix.
   Equalization equalization = Equalization::kLocal;
-  double clahe_clip_limit = 4.0;                  // Contrast limit of local equalization.
-  int clahe_tiles = 8;                            // Tiles across the image for kLocal.
+  double clahe_clip_limit = 4.0;  // Contrast limit of local equalization.
+  int clahe_tiles = 8;            // Tiles across the image for kLocal.
 
   bool Check(std::string* error) const;
 };

@@ -114,8 +114,7 @@ Eigen::Isometry3d ToIsometry(const Pose& pose) {
 Pose FromIsometry(const Eigen::Isometry3d& iso) {
   const Eigen::AngleAxisd axis(iso.rotation());
   const Eigen::Vector3d v = axis.angle() * axis.axis();
-  return {v.x(), v.y(), v.z(), iso.translation().x(), iso.translation().y(),
-          iso.translation().z()};
+  return {v.x(), v.y(), v.z(), iso.translation().x(), iso.translation().y(), iso.translation().z()};
 }
 
 double AngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
@@ -221,8 +220,10 @@ void Triangulate(const std::vector<Tracks>& planes, Structure* s) {
       }
       if (!pair) continue;
       cv::Mat pa, pb;
-      cv::eigen2cv(Eigen::Matrix<double, 3, 4>(s->cam_from_world[pair->first]->matrix().topRows(3)), pa);
-      cv::eigen2cv(Eigen::Matrix<double, 3, 4>(s->cam_from_world[pair->second]->matrix().topRows(3)), pb);
+      cv::eigen2cv(Eigen::Matrix<double, 3, 4>(s->cam_from_world[pair->first]->matrix().topRows(3)),
+                   pa);
+      cv::eigen2cv(
+          Eigen::Matrix<double, 3, 4>(s->cam_from_world[pair->second]->matrix().topRows(3)), pb);
       const Eigen::Vector2d& xa = seen.at(pair->first);
       const Eigen::Vector2d& xb = seen.at(pair->second);
       cv::Mat homogeneous;
@@ -315,8 +316,9 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     for (const auto& [frame, x] : seen) ++seen_in[frame];
   }
   const int reference =
-      std::max_element(seen_in.begin(), seen_in.end(),
-                       [](const auto& a, const auto& b) { return a.second < b.second; })->first;
+      std::max_element(seen_in.begin(), seen_in.end(), [](const auto& a, const auto& b) {
+        return a.second < b.second;
+      })->first;
 
   Structure structure;
   structure.cam_from_world.resize(material.frame_count);
@@ -340,9 +342,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   for (int a : posed) {
     for (int b : posed) {
       result.rotation_spread_deg =
-          std::max(result.rotation_spread_deg,
-                   AngleDeg(structure.cam_from_world[a]->rotation(),
-                            structure.cam_from_world[b]->rotation()));
+          std::max(result.rotation_spread_deg, AngleDeg(structure.cam_from_world[a]->rotation(),
+                                                        structure.cam_from_world[b]->rotation()));
     }
   }
   if (result.rotation_spread_deg < options.min_rotation_deg) {
@@ -376,10 +377,10 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     centroid /= double(points.size());
     Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
     for (const auto& [id, x] : points) scatter += (x - centroid) * (x - centroid).transpose();
-    const Eigen::Vector3d normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter)
-                                       .eigenvectors()
-                                       .col(0);
-    const Eigen::Vector3d origin = points.begin()->second - normal.dot(points.begin()->second - centroid) * normal;
+    const Eigen::Vector3d normal =
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
+    const Eigen::Vector3d origin =
+        points.begin()->second - normal.dot(points.begin()->second - centroid) * normal;
     Eigen::Vector3d axis_u = std::next(points.begin())->second - origin;
     axis_u = (axis_u - normal.dot(axis_u) * normal).normalized();
     Eigen::Isometry3d world_from_plane = Eigen::Isometry3d::Identity();
@@ -462,9 +463,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
       down_world = {d.x(), d.y(), d.z()};
       down_set = true;
     }
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GravityCost, 3, 6, 3>(
-                                 new GravityCost(g.down_cam.normalized(),
-                                                 180.0 / M_PI / g.sigma_deg)),
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GravityCost, 3, 6, 3>(new GravityCost(
+                                 g.down_cam.normalized(), 180.0 / M_PI / g.sigma_deg)),
                              nullptr, frame_poses[g.frame].data(), down_world.data());
   }
   if (down_set) {
@@ -485,9 +485,10 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   weight[kK1] = weight[kK2] = weight[kP1] = weight[kP2] = weight[kK3] =
       1.0 / options.prior_distortion;
   for (int i : fixed) weight[i] = 0.0;
-  problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PriorCost, kNumIntrinsics, kNumIntrinsics>(
-                               new PriorCost(prior.Packed(), weight)),
-                           nullptr, intrinsics.data());
+  problem.AddResidualBlock(
+      new ceres::AutoDiffCostFunction<PriorCost, kNumIntrinsics, kNumIntrinsics>(
+          new PriorCost(prior.Packed(), weight)),
+      nullptr, intrinsics.data());
   if (!fixed.empty()) {
     problem.SetManifold(intrinsics.data(), new ceres::SubsetManifold(kNumIntrinsics, fixed));
   }
@@ -520,14 +521,16 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     PlaneEstimate plane;
     plane.id = used[p]->id;
     plane.world_from_plane = ToIsometry(plane_poses[p]);
-    for (const auto& [id, uv] : plane_points[p]) plane.points.emplace_back(id, Eigen::Vector2d(uv[0], uv[1]));
+    for (const auto& [id, uv] : plane_points[p])
+      plane.points.emplace_back(id, Eigen::Vector2d(uv[0], uv[1]));
     result.planes.push_back(std::move(plane));
   }
 
   // The covariance says whether the material pins the intrinsics down (it does not under
   // pure translation, rotation about the optical axis, a single fronto-parallel view...).
   for (int i = 0; i < kNumIntrinsics; ++i) {
-    if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) result.free_parameters.push_back(i);
+    if (std::find(fixed.begin(), fixed.end(), i) == fixed.end())
+      result.free_parameters.push_back(i);
   }
   ceres::Covariance::Options covariance_options;
   ceres::Covariance covariance(covariance_options);

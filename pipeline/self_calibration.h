@@ -76,12 +76,12 @@ struct PlaneEstimate {
 
 struct SelfCalibrationResult {
   bool usable = false;
-  std::string reason;        // Why not ("no update: insufficient rotation ..."), or a report.
+  std::string reason;  // Why not ("no update: insufficient rotation ..."), or a report.
   CameraIntrinsics estimate;
   // Covariance of the free intrinsics, in the order of `free_parameters` (IntrinsicIndex).
   Eigen::MatrixXd covariance;
   std::vector<int> free_parameters;
-  double rms_px = 0.0;       // Reprojection RMS of the plane tracks.
+  double rms_px = 0.0;               // Reprojection RMS of the plane tracks.
   double rotation_spread_deg = 0.0;  // Largest angle between two views' orientations.
   int frames_used = 0;
   int planes_used = 0;

@@ -45,8 +45,8 @@ VirtualBoard AttachBoard(int plane_id, const Eigen::Isometry3d& world_from_plane
                                (mean - board.origin).y() >= 0 ? 1.0 : -1.0);
   const Eigen::Vector2d reach((toward.x() > 0 ? high : low).x() - board.origin.x(),
                               (toward.y() > 0 ? high : low).y() - board.origin.y());
-  board.square = std::max(std::abs(reach.x()) / options.squares_x,
-                          std::abs(reach.y()) / options.squares_y);
+  board.square =
+      std::max(std::abs(reach.x()) / options.squares_x, std::abs(reach.y()) / options.squares_y);
   if (!(board.square > 0)) board.square = 1.0;
   if (toward.x() < 0) board.origin.x() -= board.square * board.squares_x;
   if (toward.y() < 0) board.origin.y() -= board.square * board.squares_y;

@@ -16,9 +16,9 @@
 namespace autocal {
 
 struct VirtualBoardOptions {
-  int squares_x = 8;            // Squares along the plane's first axis.
-  int squares_y = 6;            // Squares along its second axis.
-  int samples_per_square = 6;   // Points per square side on the drawn lines (they bend).
+  int squares_x = 8;           // Squares along the plane's first axis.
+  int squares_y = 6;           // Squares along its second axis.
+  int samples_per_square = 6;  // Points per square side on the drawn lines (they bend).
 
   bool Check(std::string* error) const;
 };

@@ -92,10 +92,9 @@ TEST_P(CameraModelTest, UnprojectAgreesWithOpenCv) {
   const std::vector<cv::Point2d> pixels = PixelGrid(camera, 40);
   std::vector<cv::Point2d> expected;
   // OpenCV's default stops after 5 iterations; ask it to converge fully.
-  cv::undistortPoints(pixels, expected, CvCameraMatrix(camera), CvDistortion(camera),
-                      cv::noArray(), cv::noArray(),
-                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 1000,
-                                       1e-15));
+  cv::undistortPoints(
+      pixels, expected, CvCameraMatrix(camera), CvDistortion(camera), cv::noArray(), cv::noArray(),
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 1000, 1e-15));
   double worst = 0.0;
   for (size_t i = 0; i < pixels.size(); ++i) {
     const auto ours = Unproject(camera, {pixels[i].x, pixels[i].y});

@@ -72,17 +72,18 @@ TEST(DistortionReal, StraightLinesInOpenCvSampleShotsGiveTheTargetBasedDistortio
   auto corner_rms = [&](const CameraIntrinsics& lens) {
     cv::Mat k_held = k.clone();
     cv::Mat d_held = (cv::Mat_<double>(1, 5) << lens.k1, lens.k2, 0, 0, 0);
-    return cv::calibrateCamera(board, corners, {640, 480}, k_held, d_held, rvecs, tvecs,
-                               model | cv::CALIB_FIX_K1 | cv::CALIB_FIX_K2 |
-                                   cv::CALIB_USE_INTRINSIC_GUESS);
+    return cv::calibrateCamera(
+        board, corners, {640, 480}, k_held, d_held, rvecs, tvecs,
+        model | cv::CALIB_FIX_K1 | cv::CALIB_FIX_K2 | cv::CALIB_USE_INTRINSIC_GUESS);
   };
   const double rms_ours = corner_rms(result.estimate);
   const double rms_none = corner_rms(start);
   const double difference = MaxDistortionDifference(result.estimate, reference, 0.8);
   const double size = MaxDistortionDifference(start, reference, 0.8);
-  std::printf("%s\nboard corners RMS: target-based %.3f px, ours %.3f px, no distortion %.3f px; "
-              "ours vs target-based within 80%% of the half-diagonal: %.2f px of %.1f px\n",
-              result.message.c_str(), rms_reference, rms_ours, rms_none, difference, size);
+  std::printf(
+      "%s\nboard corners RMS: target-based %.3f px, ours %.3f px, no distortion %.3f px; "
+      "ours vs target-based within 80%% of the half-diagonal: %.2f px of %.1f px\n",
+      result.message.c_str(), rms_reference, rms_ours, rms_none, difference, size);
   EXPECT_GE(result.lines_used, 50);
   EXPECT_LT(rms_ours, 1.15 * rms_reference) << "px: ours explains the real corners";
   EXPECT_GT(rms_none, 4 * rms_reference) << "the lens distorts: without a model corners miss";

@@ -21,7 +21,7 @@ struct LensRun {
   double worst_near_border_px = 0.0;
   double worst_end_px = 0.0;
   int snakes_checked = 0;
-  int snakes_off_lines = 0;      // Following edges that are curved in the world.
+  int snakes_off_lines = 0;  // Following edges that are curved in the world.
 };
 
 bool NearBorder(const Eigen::Vector2d& p, const CameraIntrinsics& c) {
@@ -46,7 +46,8 @@ LensRun RunOffice(const std::string& lens, double seconds) {
   options.estimate_every_frames = 1 << 30;  // One estimate, at the end.
   LensStage stage(options);
   // Render the next frame on the other core while this one is processed.
-  std::future<cv::Mat> next = std::async(std::launch::async, [&] { return sequence->LoadFrame(0); });
+  std::future<cv::Mat> next =
+      std::async(std::launch::async, [&] { return sequence->LoadFrame(0); });
   for (size_t i = 0; i < sequence->frame_count(); ++i) {
     const cv::Mat frame = next.get();
     if (i + 1 < sequence->frame_count()) {
@@ -84,11 +85,11 @@ LensRun RunOffice(const std::string& lens, double seconds) {
     }
   }
   run.estimate = stage.EstimateNow(start);
-  std::printf("%s: %s\n  snakes on world lines %d (worst confirmed hinge %.3f px; %d within 10%% "
-              "of the border, worst %.3f px; worst probing end %.3f px), on curved edges %d\n",
-              lens.c_str(), run.estimate.message.c_str(), run.snakes_checked, run.worst_vertex_px,
-              run.vertices_near_border, run.worst_near_border_px, run.worst_end_px,
-              run.snakes_off_lines);
+  std::printf(
+      "%s: %s\n  snakes on world lines %d (worst confirmed hinge %.3f px; %d within 10%% "
+      "of the border, worst %.3f px; worst probing end %.3f px), on curved edges %d\n",
+      lens.c_str(), run.estimate.message.c_str(), run.snakes_checked, run.worst_vertex_px,
+      run.vertices_near_border, run.worst_near_border_px, run.worst_end_px, run.snakes_off_lines);
   return run;
 }
 

@@ -14,19 +14,6 @@ struct TrueLine {
   double rho, theta;
 };
 
-// Angle and offset differences between two (rho, theta) lines, allowing for the wrap
-// (rho, theta) == (-rho, theta + pi).
-std::pair<double, double> LineDifference(double rho_a, double theta_a, double rho_b,
-                                         double theta_b) {
-  double dtheta = std::remainder(theta_a - theta_b, 2 * M_PI);
-  double drho = rho_a - rho_b;
-  if (std::abs(dtheta) > M_PI / 2) {
-    dtheta = std::remainder(theta_a - theta_b + M_PI, 2 * M_PI);
-    drho = rho_a + rho_b;
-  }
-  return {std::abs(dtheta), std::abs(drho)};
-}
-
 // A convex polygon (bright on dark) rendered with exact area coverage (16x16 samples per
 // pixel, pixel centres at integers), plus Gaussian noise. Its edges are the true lines.
 cv::Mat RenderPolygon(const std::vector<Eigen::Vector2d>& corners, cv::Size size, double noise,
@@ -47,8 +34,8 @@ cv::Mat RenderPolygon(const std::vector<Eigen::Vector2d>& corners, cv::Size size
     lines->push_back({rho, theta});
   }
   // The orientation of the corners decides which side is inside.
-  const double sign = half_planes[0].dot(Eigen::Vector3d(corners[2].x(), corners[2].y(), 1)) > 0
-                          ? 1.0 : -1.0;
+  const double sign =
+      half_planes[0].dot(Eigen::Vector3d(corners[2].x(), corners[2].y(), 1)) > 0 ? 1.0 : -1.0;
   constexpr int kSub = 16;
   cv::Mat image(size, CV_32F);
   for (int y = 0; y < size.height; ++y) {
@@ -115,7 +102,7 @@ TEST(LineDetector, FindsPolygonEdgesToSubPixelAccuracy) {
     for (const TrueLine& line : truth) {
       double best_theta = 1e9, best_rho = 1e9;
       for (const LineSegment& segment : found) {
-        const auto [dtheta, drho] = LineDifference(segment.rho, segment.theta, line.rho, line.theta);
+        const auto [dtheta, drho] = LineDistance(segment.rho, segment.theta, line.rho, line.theta);
         if (dtheta < 1 * M_PI / 180 && drho < 3 && drho < best_rho) {
           best_theta = dtheta;
           best_rho = drho;

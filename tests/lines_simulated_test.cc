@@ -21,18 +21,6 @@ struct ImageLine {
   double rho, theta;
 };
 
-// Angle and offset between two (rho, theta) lines, allowing for the wrap
-// (rho, theta) == (-rho, theta + pi).
-std::pair<double, double> Difference(double rho_a, double theta_a, double rho_b, double theta_b) {
-  double dtheta = std::abs(std::remainder(theta_a - theta_b, 2 * M_PI));
-  double drho = std::abs(rho_a - rho_b);
-  if (dtheta > M_PI / 2) {
-    dtheta = std::abs(std::remainder(theta_a - theta_b + M_PI, 2 * M_PI));
-    drho = std::abs(rho_a + rho_b);
-  }
-  return {dtheta, drho};
-}
-
 // The image line through the pinhole images of two world points.
 ImageLine Through(const CameraIntrinsics& k, const Eigen::Isometry3d& cam_from_world,
                   const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
@@ -92,10 +80,12 @@ TEST_P(LinesSimulatedTest, FindsTheBoardsLinesWhereTheyAre) {
     truth.push_back(Through(pinhole, cam_from_world, plane.Point(s, (j + 1) * s),
                             plane.Point((board.squares_x + 1) * s, (j + 1) * s)));
   }
-  truth.push_back(Through(pinhole, cam_from_world, plane.Point(0, 0), plane.Point(plane.width_m, 0)));
+  truth.push_back(
+      Through(pinhole, cam_from_world, plane.Point(0, 0), plane.Point(plane.width_m, 0)));
   truth.push_back(Through(pinhole, cam_from_world, plane.Point(0, plane.height_m),
                           plane.Point(plane.width_m, plane.height_m)));
-  truth.push_back(Through(pinhole, cam_from_world, plane.Point(0, 0), plane.Point(0, plane.height_m)));
+  truth.push_back(
+      Through(pinhole, cam_from_world, plane.Point(0, 0), plane.Point(0, plane.height_m)));
   truth.push_back(Through(pinhole, cam_from_world, plane.Point(plane.width_m, 0),
                           plane.Point(plane.width_m, plane.height_m)));
 
@@ -108,7 +98,8 @@ TEST_P(LinesSimulatedTest, FindsTheBoardsLinesWhereTheyAre) {
     double best_rho = 1e9, best_theta = 1e9;
     size_t best = 0;
     for (size_t t = 0; t < truth.size(); ++t) {
-      const auto [dtheta, drho] = Difference(segment.rho, segment.theta, truth[t].rho, truth[t].theta);
+      const auto [dtheta, drho] =
+          LineDistance(segment.rho, segment.theta, truth[t].rho, truth[t].theta);
       if (drho + 100 * dtheta < best_rho + 100 * best_theta) {
         best_rho = drho;
         best_theta = dtheta;

@@ -7,21 +7,10 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include "tests/test_util.h"
+
 namespace autocal {
 namespace {
-
-CameraIntrinsics Lens(double k1, double k2) {
-  CameraIntrinsics c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = 427.0;
-  c.fy = 427.8;
-  c.cx = 322.5;
-  c.cy = 237.0;
-  c.k1 = k1;
-  c.k2 = k2;
-  return c;
-}
 
 // Points of random straight world lines seen through `camera`, each point displaced by
 // Gaussian noise of `noise_px`; `curved` more lines bent in the world (arcs).
@@ -42,7 +31,8 @@ std::vector<LineObservation> SampleLines(const CameraIntrinsics& camera, int cou
           pixel.y() > camera.height - 3) {
         continue;
       }
-      line.points.push_back(pixel + Eigen::Vector2d(rng.gaussian(noise_px), rng.gaussian(noise_px)));
+      line.points.push_back(pixel +
+                            Eigen::Vector2d(rng.gaussian(noise_px), rng.gaussian(noise_px)));
     }
     if (line.points.size() >= 8) lines.push_back(line);
   }
@@ -59,10 +49,10 @@ TEST(PlumbLine, DefaultOptionsAreValid) {
 }
 
 TEST(PlumbLine, RecoversStrongBarrelFromNoDistortion) {
-  const CameraIntrinsics truth = Lens(-0.3, 0.1);
+  const CameraIntrinsics truth = test::SonnarLikeCamera(-0.3, 0.1);
   cv::RNG rng(11);
   const auto lines = SampleLines(truth, 30, 0, 0.1, rng);
-  const CameraIntrinsics start = Lens(0.0, 0.0);
+  const CameraIntrinsics start = test::SonnarLikeCamera(0.0, 0.0);
   const PlumbLineResult result = EstimateDistortion(lines, start, PlumbLineOptions());
   ASSERT_TRUE(result.usable) << result.message;
   const double error = MaxDistortionDifference(result.estimate, truth, 0.9);
@@ -76,28 +66,30 @@ TEST(PlumbLine, RecoversStrongBarrelFromNoDistortion) {
 }
 
 TEST(PlumbLine, RejectsEdgesCurvedInTheWorld) {
-  const CameraIntrinsics truth = Lens(-0.3, 0.1);
+  const CameraIntrinsics truth = test::SonnarLikeCamera(-0.3, 0.1);
   cv::RNG rng(5);
   const auto lines = SampleLines(truth, 30, 4, 0.1, rng);
-  const PlumbLineResult result = EstimateDistortion(lines, Lens(0, 0), PlumbLineOptions());
+  const PlumbLineResult result =
+      EstimateDistortion(lines, test::SonnarLikeCamera(0, 0), PlumbLineOptions());
   ASSERT_TRUE(result.usable) << result.message;
   EXPECT_GE(result.lines_rejected, 3);
   EXPECT_LT(MaxDistortionDifference(result.estimate, truth, 0.9), 0.5);
 }
 
 TEST(PlumbLine, FindsNoSpuriousDistortionOnANearlyPerfectLens) {
-  const CameraIntrinsics truth = Lens(-0.001, 0.0);  // Below 0.5 px everywhere.
+  const CameraIntrinsics truth = test::SonnarLikeCamera(-0.001, 0.0);  // Below 0.5 px everywhere.
   cv::RNG rng(2);
   const auto lines = SampleLines(truth, 30, 0, 0.1, rng);
-  const PlumbLineResult result = EstimateDistortion(lines, Lens(0, 0), PlumbLineOptions());
+  const PlumbLineResult result =
+      EstimateDistortion(lines, test::SonnarLikeCamera(0, 0), PlumbLineOptions());
   ASSERT_TRUE(result.usable) << result.message;
-  EXPECT_LT(MaxDistortionDifference(result.estimate, Lens(0, 0), 0.9), 0.5)
+  EXPECT_LT(MaxDistortionDifference(result.estimate, test::SonnarLikeCamera(0, 0), 0.9), 0.5)
       << "against no distortion at all";
   EXPECT_LT(MaxDistortionDifference(result.estimate, truth, 0.9), 0.5);
 }
 
 TEST(PlumbLine, FreesTangentialK3AndTheCentreWhenAsked) {
-  CameraIntrinsics truth = Lens(-0.28, 0.09);
+  CameraIntrinsics truth = test::SonnarLikeCamera(-0.28, 0.09);
   truth.p1 = 0.002;
   truth.p2 = -0.0015;
   truth.k3 = -0.01;
@@ -105,7 +97,7 @@ TEST(PlumbLine, FreesTangentialK3AndTheCentreWhenAsked) {
   truth.cy -= 6.0;
   cv::RNG rng(9);
   const auto lines = SampleLines(truth, 60, 0, 0.1, rng);
-  CameraIntrinsics start = Lens(0, 0);  // Centre 8 px and 6 px off.
+  CameraIntrinsics start = test::SonnarLikeCamera(0, 0);  // Centre 8 px and 6 px off.
   PlumbLineOptions options;
   options.estimate_tangential = true;
   options.estimate_k3 = true;
@@ -125,16 +117,18 @@ TEST(PlumbLine, FreesTangentialK3AndTheCentreWhenAsked) {
 
 TEST(PlumbLine, SaysWhyWhenThereAreTooFewLines) {
   cv::RNG rng(1);
-  const auto lines = SampleLines(Lens(-0.3, 0.1), 3, 0, 0.1, rng);
-  const PlumbLineResult result = EstimateDistortion(lines, Lens(0, 0), PlumbLineOptions());
+  const auto lines = SampleLines(test::SonnarLikeCamera(-0.3, 0.1), 3, 0, 0.1, rng);
+  const PlumbLineResult result =
+      EstimateDistortion(lines, test::SonnarLikeCamera(0, 0), PlumbLineOptions());
   EXPECT_FALSE(result.usable);
   EXPECT_NE(result.message.find("lines"), std::string::npos) << result.message;
 }
 
 TEST(PlumbLine, ScalingToAnotherFocalKeepsThePixelMap) {
-  CameraIntrinsics camera = Lens(-0.3, 0.1);
+  CameraIntrinsics camera = test::SonnarLikeCamera(-0.3, 0.1);
   camera.fy = camera.fx;
-  const CameraIntrinsics scaled = ScaleDistortionToFocal(camera, 1.05 * camera.fx, 1.05 * camera.fy);
+  const CameraIntrinsics scaled =
+      ScaleDistortionToFocal(camera, 1.05 * camera.fx, 1.05 * camera.fy);
   // Undistorted pixel positions relative to the centre agree for every pixel.
   for (int y = 0; y < camera.height; y += 40) {
     for (int x = 0; x < camera.width; x += 40) {

@@ -9,23 +9,10 @@
 #include <opencv2/core.hpp>
 
 #include "pipeline/camera_model.h"
+#include "tests/test_util.h"
 
 namespace autocal {
 namespace {
-
-// The sonnar-like lens: strong barrel.
-CameraIntrinsics Sonnar() {
-  CameraIntrinsics c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = 427.0;
-  c.fy = 427.8;
-  c.cx = 322.5;
-  c.cy = 237.0;
-  c.k1 = -0.3;
-  c.k2 = 0.1;
-  return c;
-}
 
 // Renders the image of the world line n . x = c (x in ideal normalized coordinates)
 // through the lens exactly: bright on one side, dark on the other, pixels near the
@@ -35,7 +22,8 @@ class LineRenderer {
   explicit LineRenderer(const CameraIntrinsics& camera) : camera_(camera) {
     rays_.resize(size_t(camera.width) * camera.height);
     for (int y = 0; y < camera.height; ++y) {
-      for (int x = 0; x < camera.width; ++x) rays_[y * camera.width + x] = *Unproject(camera, {x, y});
+      for (int x = 0; x < camera.width; ++x)
+        rays_[y * camera.width + x] = *Unproject(camera, {x, y});
     }
   }
 
@@ -115,7 +103,7 @@ TEST(RadonSnake, BendAnglesAreZeroOnlyWhenStraight) {
 // moving to the border, where the sonnar lens bends it strongly: the snake stays on the
 // true curve within 0.5 px all the way, including within 10% of the border.
 TEST(RadonSnake, FollowsALineBentByTheLensToTheBorder) {
-  const CameraIntrinsics camera = Sonnar();
+  const CameraIntrinsics camera = test::SonnarLikeCamera();
   const LineRenderer renderer(camera);
   const Eigen::Vector2d normal(std::cos(4 * M_PI / 180), std::sin(4 * M_PI / 180));
   cv::RNG rng(3);
@@ -145,8 +133,10 @@ TEST(RadonSnake, FollowsALineBentByTheLensToTheBorder) {
       }
     }
   }
-  std::printf("worst vertex distance to the true curve %.3f px (%.3f px within 10%% of the "
-              "border, %d vertices there)\n", worst, worst_near_border, vertices_near_border);
+  std::printf(
+      "worst vertex distance to the true curve %.3f px (%.3f px within 10%% of the "
+      "border, %d vertices there)\n",
+      worst, worst_near_border, vertices_near_border);
   EXPECT_LT(worst, 0.5);
   EXPECT_GT(vertices_near_border, 50);
   // At the border the snake is visibly bent: the bends add up to the curve's turn.

@@ -100,7 +100,8 @@ TEST(Rectifier, LocalEqualizationFlattensVignetting) {
   for (int y = 0; y < texture.rows; ++y) {
     for (int x = 0; x < texture.cols; ++x) {
       const double r2 = (std::pow(x - 159.5, 2) + std::pow(y - 119.5, 2)) / (f * f);
-      vignetted.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(texture.at<uint8_t>(y, x) / ((1 + r2) * (1 + r2)));
+      vignetted.at<uint8_t>(y, x) =
+          cv::saturate_cast<uint8_t>(texture.at<uint8_t>(y, x) / ((1 + r2) * (1 + r2)));
     }
   }
   auto corner_to_centre = [](const cv::Mat& image) {

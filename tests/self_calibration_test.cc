@@ -1,5 +1,6 @@
 #include "pipeline/self_calibration.h"
 #include "pipeline/virtual_board.h"
+#include "tests/test_util.h"
 
 #include <cmath>
 #include <cstdio>
@@ -12,22 +13,9 @@
 namespace autocal {
 namespace {
 
-CameraIntrinsics Truth() {
-  CameraIntrinsics c;
-  c.width = 640;
-  c.height = 480;
-  c.fx = 427.0;
-  c.fy = 427.8;
-  c.cx = 322.5;
-  c.cy = 237.0;
-  c.k1 = -0.3;
-  c.k2 = 0.1;
-  return c;
-}
-
 // The start the issue asks for: focal 5% long, principal point off, no distortion.
 CameraIntrinsics WrongStart() {
-  CameraIntrinsics c = Truth();
+  CameraIntrinsics c = test::SonnarLikeCamera();
   c.fx *= 1.05;
   c.fy *= 1.05;
   c.cx += 15.0;
@@ -74,9 +62,10 @@ Room MakeRoom(cv::RNG& rng) {
     room.planes[1].emplace_back(6.0, rng.uniform(-3.0, 3.0), rng.uniform(0.0, 2.8));  // Wall.
     room.planes[2].emplace_back(rng.uniform(0.5, 6.0), 3.0, rng.uniform(0.0, 2.8));   // Wall.
   }
-  room.edges = {{{6, -3, 0}, {6, 3, 0}},   {{0.5, 3, 0}, {6, 3, 0}}, {{6, 3, 0}, {6, 3, 2.8}},
-                {{6, -3, 2.8}, {6, 3, 2.8}}, {{6, -1, 0}, {6, -1, 2.1}}, {{6, 0, 2.1}, {6, -1, 2.1}},
-                {{2, 3, 0.2}, {2, 3, 2.0}},    {{4, 3, 0.9}, {5.5, 3, 0.9}}};
+  room.edges = {{{6, -3, 0}, {6, 3, 0}},    {{0.5, 3, 0}, {6, 3, 0}},
+                {{6, 3, 0}, {6, 3, 2.8}},   {{6, -3, 2.8}, {6, 3, 2.8}},
+                {{6, -1, 0}, {6, -1, 2.1}}, {{6, 0, 2.1}, {6, -1, 2.1}},
+                {{2, 3, 0.2}, {2, 3, 2.0}}, {{4, 3, 0.9}, {5.5, 3, 0.9}}};
   return room;
 }
 
@@ -149,7 +138,7 @@ TEST(SelfCalibration, DefaultOptionsAreValid) {
 TEST(SelfCalibration, ConvergesFromAWrongStartToTheTruth) {
   cv::RNG rng(4);
   const Room room = MakeRoom(rng);
-  const CameraIntrinsics truth = Truth();
+  const CameraIntrinsics truth = test::SonnarLikeCamera();
   const CalibrationMaterial material = Observe(room, Walk(LookingAbout, 40), truth, 0.5, rng);
   const SelfCalibrationResult result = SelfCalibrate(material, WrongStart(), {});
   std::printf("%s\n", result.reason.c_str());
@@ -176,15 +165,16 @@ TEST(SelfCalibration, ConvergesFromAWrongStartToTheTruth) {
 TEST(SelfCalibration, PlaneTracksAloneFixTheIntrinsics) {
   cv::RNG rng(8);
   const Room room = MakeRoom(rng);
-  CalibrationMaterial material = Observe(room, Walk(LookingAbout, 40), Truth(), 0.5, rng);
+  CalibrationMaterial material =
+      Observe(room, Walk(LookingAbout, 40), test::SonnarLikeCamera(), 0.5, rng);
   material.lines.clear();
   material.gravity.clear();
   const SelfCalibrationResult result = SelfCalibrate(material, WrongStart(), {});
   ASSERT_TRUE(result.usable) << result.reason;
-  EXPECT_NEAR(result.estimate.fx / Truth().fx, 1.0, 0.005);
-  EXPECT_NEAR(result.estimate.cx, Truth().cx, 2.0);
-  EXPECT_NEAR(result.estimate.cy, Truth().cy, 2.0);
-  EXPECT_NEAR(result.estimate.k1, Truth().k1, 0.01);
+  EXPECT_NEAR(result.estimate.fx / test::SonnarLikeCamera().fx, 1.0, 0.005);
+  EXPECT_NEAR(result.estimate.cx, test::SonnarLikeCamera().cx, 2.0);
+  EXPECT_NEAR(result.estimate.cy, test::SonnarLikeCamera().cy, 2.0);
+  EXPECT_NEAR(result.estimate.k1, test::SonnarLikeCamera().k1, 0.01);
 }
 
 // Box 8: a virtual board attached to a plane sticks to the plane's real texture when drawn
@@ -193,7 +183,7 @@ TEST(SelfCalibration, VirtualBoardSticksWithTheEstimateAndSlidesWithoutIt) {
   cv::RNG rng(4);
   const Room room = MakeRoom(rng);
   const std::vector<Eigen::Isometry3d> poses = Walk(LookingAbout, 40);
-  const CalibrationMaterial material = Observe(room, poses, Truth(), 0.5, rng);
+  const CalibrationMaterial material = Observe(room, poses, test::SonnarLikeCamera(), 0.5, rng);
   const SelfCalibrationResult result = SelfCalibrate(material, WrongStart(), {});
   ASSERT_TRUE(result.usable) << result.reason;
   ASSERT_FALSE(result.planes.empty());
@@ -209,7 +199,8 @@ TEST(SelfCalibration, VirtualBoardSticksWithTheEstimateAndSlidesWithoutIt) {
   for (int j = 0; j <= board.squares_y; ++j) {
     for (int i = 0; i <= board.squares_x; ++i) {
       const Eigen::Vector3d corner = board.Corner(i, j);
-      if ((corner - plane.world_from_plane * Eigen::Vector3d(uv[0].x(), uv[0].y(), 0)).norm() < 1e-9) {
+      if ((corner - plane.world_from_plane * Eigen::Vector3d(uv[0].x(), uv[0].y(), 0)).norm() <
+          1e-9) {
         i0 = i;
         j0 = j;
       }
@@ -222,10 +213,12 @@ TEST(SelfCalibration, VirtualBoardSticksWithTheEstimateAndSlidesWithoutIt) {
     if (!result.cam_from_world[f]) continue;
     const Eigen::Vector3d in_true_cam = poses[f] * true_point;
     if (in_true_cam.z() < 0.3) continue;
-    const Eigen::Vector2d truth = Project(Truth(), in_true_cam);
+    const Eigen::Vector2d truth = Project(test::SonnarLikeCamera(), in_true_cam);
     if (truth.x() < 0 || truth.y() < 0 || truth.x() > 639 || truth.y() > 479) continue;
-    const BoardProjection drawn = ProjectBoard(board, *result.cam_from_world[f], result.estimate, options);
-    const BoardProjection slid = ProjectBoard(board, *result.cam_from_world[f], WrongStart(), options);
+    const BoardProjection drawn =
+        ProjectBoard(board, *result.cam_from_world[f], result.estimate, options);
+    const BoardProjection slid =
+        ProjectBoard(board, *result.cam_from_world[f], WrongStart(), options);
     const size_t k = size_t(j0 * (board.squares_x + 1) + i0);
     ASSERT_LT(k, drawn.corners.size());
     worst_estimate = std::max(worst_estimate, (drawn.corners[k] - truth).norm());
@@ -233,8 +226,10 @@ TEST(SelfCalibration, VirtualBoardSticksWithTheEstimateAndSlidesWithoutIt) {
     ++frames;
     EXPECT_GT(drawn.lines.size(), size_t(board.squares_x + board.squares_y));
   }
-  std::printf("board corner vs the real point over %d frames: %.2f px with the estimate, %.1f px "
-              "with the start\n", frames, worst_estimate, worst_start);
+  std::printf(
+      "board corner vs the real point over %d frames: %.2f px with the estimate, %.1f px "
+      "with the start\n",
+      frames, worst_estimate, worst_start);
   EXPECT_GT(frames, 5);
   EXPECT_LT(worst_estimate, 1.0);
   EXPECT_GT(worst_start, 10.0);
@@ -244,7 +239,8 @@ TEST(SelfCalibration, StaticCameraGivesNoUpdate) {
   cv::RNG rng(5);
   const Room room = MakeRoom(rng);
   const auto still = [](double) { return CamFromWorld({1, -0.5, 1.4}, 30, -15, 0); };
-  const CalibrationMaterial material = Observe(room, Walk(still, 30), Truth(), 0.5, rng);
+  const CalibrationMaterial material =
+      Observe(room, Walk(still, 30), test::SonnarLikeCamera(), 0.5, rng);
   const SelfCalibrationResult result = SelfCalibrate(material, WrongStart(), {});
   EXPECT_FALSE(result.usable);
   EXPECT_NE(result.reason.find("no update"), std::string::npos) << result.reason;
@@ -254,9 +250,11 @@ TEST(SelfCalibration, StaticCameraGivesNoUpdate) {
 TEST(SelfCalibration, PureTranslationGivesNoUpdate) {
   cv::RNG rng(6);
   const Room room = MakeRoom(rng);
-  const auto sliding = [](double f) { return CamFromWorld({0.05 * f, -0.5 + 0.02 * f, 1.4}, 30, -15, 0); };
-  const SelfCalibrationResult result =
-      SelfCalibrate(Observe(room, Walk(sliding, 30), Truth(), 0.5, rng), WrongStart(), {});
+  const auto sliding = [](double f) {
+    return CamFromWorld({0.05 * f, -0.5 + 0.02 * f, 1.4}, 30, -15, 0);
+  };
+  const SelfCalibrationResult result = SelfCalibrate(
+      Observe(room, Walk(sliding, 30), test::SonnarLikeCamera(), 0.5, rng), WrongStart(), {});
   EXPECT_FALSE(result.usable);
   EXPECT_NE(result.reason.find("insufficient rotation"), std::string::npos) << result.reason;
 }
@@ -266,8 +264,8 @@ TEST(SelfCalibration, RotationAboutTheOpticalAxisGivesNoUpdate) {
   const Room room = MakeRoom(rng);
   // Turning only about the optical axis (the camera looks along world x here).
   const auto rolling = [](double f) { return CamFromWorld({1, 0, 1.4}, 0, 0, 1.5 * f); };
-  const SelfCalibrationResult result =
-      SelfCalibrate(Observe(room, Walk(rolling, 30), Truth(), 0.5, rng), WrongStart(), {});
+  const SelfCalibrationResult result = SelfCalibrate(
+      Observe(room, Walk(rolling, 30), test::SonnarLikeCamera(), 0.5, rng), WrongStart(), {});
   EXPECT_FALSE(result.usable) << result.reason;
   EXPECT_NE(result.reason.find("not observable"), std::string::npos) << result.reason;
 }
@@ -276,7 +274,7 @@ TEST(SelfCalibration, TooFewTracksGiveNoUpdate) {
   CalibrationMaterial material;
   material.frame_count = 10;
   material.planes.push_back({1, {{0, 1, {100, 100}}, {1, 1, {101, 100}}}});
-  const SelfCalibrationResult result = SelfCalibrate(material, Truth(), {});
+  const SelfCalibrationResult result = SelfCalibrate(material, test::SonnarLikeCamera(), {});
   EXPECT_FALSE(result.usable);
   EXPECT_NE(result.reason.find("no plane with"), std::string::npos) << result.reason;
 }

@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <string>
 
+#include "pipeline/camera_model.h"
+
 namespace autocal::test {
 
 // A fresh empty folder for this test, removed when the object goes out of scope.
@@ -19,6 +21,11 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// A 640x480 camera like the simulator's sonnar lens (about 85 deg across), its principal
+// point a little off centre and fx, fy slightly unequal so swapped fields show; barrel
+// distortion k1, k2.
+CameraIntrinsics SonnarLikeCamera(double k1 = -0.3, double k2 = 0.1);
 
 // Writes `contents` to `path`, creating parent folders.
 void WriteTextFile(const std::filesystem::path& path, const std::string& contents);
