@@ -228,16 +228,19 @@ Matrix9d CalibrationHistory::InflatedCovariance(const AttemptRecord& attempt) co
 
 CalibrationHistory::Comparison CalibrationHistory::Compare(
     const AttemptRecord& attempt, const FilteredCalibration& reference) const {
+  // Only what the attempt estimated is compared; the rest it took from its prior.
   Eigen::Matrix<double, kNumIntrinsics, 1> difference =
       Eigen::Matrix<double, kNumIntrinsics, 1>::Zero();
-  Matrix9d covariance = reference.covariance;
+  Matrix9d covariance = Matrix9d::Zero();
   const auto estimate = attempt.estimate.Packed();
   const auto predicted = reference.calibration.Packed();
   const std::vector<int>& free = attempt.free_parameters;
   for (size_t a = 0; a < free.size(); ++a) {
     difference(free[a]) = estimate[free[a]] - predicted[free[a]];
-    for (size_t b = 0; b < free.size(); ++b)
-      covariance(free[a], free[b]) += attempt.covariance(a, b);
+    for (size_t b = 0; b < free.size(); ++b) {
+      covariance(free[a], free[b]) =
+          attempt.covariance(a, b) + reference.covariance(free[a], free[b]);
+    }
   }
   Comparison comparison;
   comparison.deviation = to_compared_ * difference;
@@ -254,25 +257,22 @@ CalibrationHistory::Comparison CalibrationHistory::Compare(
 
 CalibrationHistory::Comparison CalibrationHistory::CompareAttempts(const AttemptRecord& a,
                                                                    const AttemptRecord& b) const {
-  // b as a reference whose uncertainty is its own covariance and floors; only what both
+  // b as the reference, as uncertain as its covariance and floors; only what both
   // estimated is compared.
   FilteredCalibration reference;
   reference.calibration = b.estimate;
-  const Matrix9d inflated = InflatedCovariance(b);
+  reference.covariance = InflatedCovariance(b);
   AttemptRecord shared = a;
   shared.free_parameters.clear();
   std::vector<int> rows;
   for (size_t i = 0; i < a.free_parameters.size(); ++i) {
     const int p = a.free_parameters[i];
-    if (std::find(b.free_parameters.begin(), b.free_parameters.end(), p) == b.free_parameters.end())
-      continue;
+    const auto& other = b.free_parameters;
+    if (std::find(other.begin(), other.end(), p) == other.end()) continue;
     shared.free_parameters.push_back(p);
     rows.push_back(int(i));
   }
   shared.covariance = a.covariance(rows, rows);
-  for (int p : shared.free_parameters) {
-    for (int q : shared.free_parameters) reference.covariance(p, q) = inflated(p, q);
-  }
   return Compare(shared, reference);
 }
 
@@ -290,7 +290,7 @@ FilteredCalibration CalibrationHistory::Evaluate(int regime, int64_t t_ns) const
   out.calibration = regimes_[regime].start;
 
   std::vector<const AttemptRecord*> points;
-  if (regime == 0 && anchor_.t_ns <= t_ns) points.push_back(&anchor_);
+  if (regime == 0) points.push_back(&anchor_);  // Known from the start.
   for (int i : accepted_[regime]) {
     if (attempts_[i].t_ns <= t_ns) points.push_back(&attempts_[i]);
   }
@@ -301,10 +301,15 @@ FilteredCalibration CalibrationHistory::Evaluate(int regime, int64_t t_ns) const
   std::erase_if(points,
                 [&](const AttemptRecord* a) { return double(newest - a->t_ns) > window_ns; });
   out.points = int(points.size());
+  int64_t oldest = newest;
+  for (const AttemptRecord* a : points) oldest = std::min(oldest, a->t_ns);
 
-  // Time in windows from the newest point keeps the normal equations well conditioned.
+  // Time in windows from the newest point keeps the normal equations well conditioned. A
+  // polynomial is not trusted far outside its points: beyond them it is held.
   const double extrapolation_ns = options_.max_extrapolation_s * 1e9;
-  const double tau_eval = std::min(double(t_ns - newest), extrapolation_ns) / window_ns;
+  const double tau_eval = std::clamp(double(t_ns - newest),
+                                     double(oldest - newest) - extrapolation_ns, extrapolation_ns) /
+                          window_ns;
   std::vector<Matrix9d> inflated;
   for (const AttemptRecord* a : points) inflated.push_back(InflatedCovariance(*a));
 
@@ -465,6 +470,9 @@ Verdict CalibrationHistory::Judge(int64_t t_ns, const SelfCalibrationResult& res
   if (!result.usable) {
     judged.verdict = Verdict::kNoUpdate;
     judged.reason = result.reason.empty() ? "no update" : result.reason;
+  } else if (result.free_parameters.empty()) {
+    judged.verdict = Verdict::kNoUpdate;
+    judged.reason = "no update: no parameter was estimated";
   } else if (!AllFinite(result.estimate) || !judged.covariance.allFinite()) {
     judged.verdict = Verdict::kRejected;
     judged.reason = "rejected: the estimate or its covariance is not finite";
