@@ -310,8 +310,8 @@ FilteredCalibration CalibrationHistory::Evaluate(int regime, int64_t t_ns) const
   const double tau_eval = std::clamp(double(t_ns - newest),
                                      double(oldest - newest) - extrapolation_ns, extrapolation_ns) /
                           window_ns;
-  std::vector<Matrix9d> inflated;
-  for (const AttemptRecord* a : points) inflated.push_back(InflatedCovariance(*a));
+  std::vector<Matrix9d> inflated(points.size());
+  for (size_t i = 0; i < points.size(); ++i) inflated[i] = InflatedCovariance(*points[i]);
 
   // Per parameter: the points that estimated it.
   struct Series {
