@@ -1,5 +1,6 @@
-// Calibration files: read and write a camera's intrinsics in the field names of the
-// ecosystem that reads them. OpenCV's FileStorage does the parsing and printing.
+// Calibration files: read and write one camera's intrinsics in the field names and
+// conventions of the ecosystem that reads them (docs/formats.md). Histories are in
+// calibration_export.h.
 #pragma once
 
 #include <string>
@@ -12,17 +13,23 @@ namespace autocal {
 enum class CalibrationFormat {
   kOpenCv,  // OpenCV FileStorage YAML: camera_matrix, distortion_coefficients, image size.
   kJson,    // autocal's JSON: one field per parameter.
+  kRos,     // ROS camera_info YAML (camera_calibration_parsers), plumb_bob.
+  kKalibr,  // Kalibr camchain YAML, one camera, pinhole + radtan (no k3).
+  kColmap,  // COLMAP cameras.txt, OPENCV (FULL_OPENCV when k3 != 0), centres at +0.5.
 };
 
-// "opencv" or "json"; throws Error listing the names it knows.
+// "opencv", "json", "ros", "kalibr" or "colmap"; throws Error listing the names it knows.
 CalibrationFormat CalibrationFormatFromName(const std::string& name);
 std::vector<std::string> CalibrationFormatNames();
 
-// Reads any format above, recognized by its fields. Throws Error naming the file and the
-// missing or malformed field.
-CameraIntrinsics ReadCalibration(const std::string& path);
+// Reads any format above (and OpenCV's XML and JSON), recognized by its content, not its
+// name; `format`, when given, receives the one found. Throws Error naming the file, the
+// line where there is one, and what was expected. Coefficients the model cannot hold
+// (skew, k4 and beyond) are refused when nonzero, never dropped.
+CameraIntrinsics ReadCalibration(const std::string& path, CalibrationFormat* format = nullptr);
 
-// Writes (replacing) the file. Throws Error when it cannot.
+// Writes (replacing) the file. Throws Error for an invalid calibration, one the format
+// cannot express (Kalibr and k3 != 0), or when the file cannot be written.
 void WriteCalibration(const std::string& path, const CameraIntrinsics& camera,
                       CalibrationFormat format);
 
