@@ -8,6 +8,7 @@
 #include <string>
 
 #include <QCommandLineParser>
+#include <QFileInfo>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -183,7 +184,9 @@ int Distortion(const QStringList& arguments) {
   parser.addPositionalArgument("images", "More image files (besides --images).", "[FILE...]");
   parser.addOptions({
       {"images", "Image files: a glob pattern such as 'shots/*.png' (repeatable).", "glob"},
-      {"prior", "Calibration to start from (OpenCV YAML or JSON); its focal length is held.",
+      {"prior",
+       "Calibration to start from (OpenCV YAML, autocal JSON, ROS camera_info, Kalibr "
+       "camchain or COLMAP cameras.txt); its focal length is held.",
        "file"},
       {"fov",
        "Without --prior: horizontal field of view assumed for the focal length, "
@@ -191,7 +194,10 @@ int Distortion(const QStringList& arguments) {
        "deg", "75"},
       {"summary", "Write a JSON summary here.", "file"},
       {"out", "Write the calibration with the estimated distortion here.", "file"},
-      {"format", "Format of --out: opencv or json (default: from the extension).", "name"},
+      {"format",
+       "Format of --out: opencv, json, ros, kalibr or colmap (default: .json is json, .txt "
+       "colmap, anything else opencv).",
+       "name"},
       {"k3", "Also estimate k3."},
       {"tangential", "Also estimate p1, p2."},
       {"centre", "Also estimate the distortion centre (principal point)."},
@@ -282,10 +288,11 @@ int Distortion(const QStringList& arguments) {
     if (!result.usable) return 1;
     if (parser.isSet("out")) {
       const std::string out = parser.value("out").toStdString();
-      const std::string format =
-          parser.isSet("format")
-              ? parser.value("format").toStdString()
-              : (QString::fromStdString(out).endsWith(".json") ? "json" : "opencv");
+      const QString suffix = QFileInfo(QString::fromStdString(out)).suffix();
+      const std::string format = parser.isSet("format") ? parser.value("format").toStdString()
+                                 : suffix == "json"     ? "json"
+                                 : suffix == "txt"      ? "colmap"
+                                                        : "opencv";
       WriteCalibration(out, result.estimate, CalibrationFormatFromName(format));
     }
     return 0;
