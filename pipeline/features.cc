@@ -1,0 +1,168 @@
+#include "pipeline/features.h"
+
+#include <algorithm>
+#include <numeric>
+#include <sstream>
+
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "pipeline/error.h"
+
+namespace autocal {
+
+bool FeatureOptions::Check(std::string* error) const {
+  std::ostringstream why;
+  if (grid_columns < 1 || grid_columns > 64) {
+    why << "grid_columns must be in [1, 64]";
+  } else if (grid_rows < 1 || grid_rows > 64) {
+    why << "grid_rows must be in [1, 64]";
+  } else if (max_per_cell < 1) {
+    why << "max_per_cell must be at least 1";
+  } else if (fast_threshold < 1 || fast_threshold > 255) {
+    why << "fast_threshold must be in [1, 255]";
+  } else if (min_fast_threshold < 1 || min_fast_threshold > fast_threshold) {
+    why << "min_fast_threshold must be in [1, fast_threshold]";
+  } else if (!(min_distance_px >= 0)) {
+    why << "min_distance_px must not be negative";
+  } else if (border_px < 0) {
+    why << "border_px must not be negative";
+  } else if (max_keypoints < 1) {
+    why << "max_keypoints must be at least 1";
+  } else if (!(match_ratio > 0 && match_ratio <= 1)) {
+    why << "match_ratio must be in (0, 1]";
+  }
+  if (why.str().empty()) return true;
+  if (error) *error = why.str();
+  return false;
+}
+
+int GridCell(const cv::Point2f& point, cv::Size size, const FeatureOptions& options) {
+  const int column = std::clamp(int(point.x * options.grid_columns / size.width), 0,
+                                options.grid_columns - 1);
+  const int row =
+      std::clamp(int(point.y * options.grid_rows / size.height), 0, options.grid_rows - 1);
+  return row * options.grid_columns + column;
+}
+
+std::vector<cv::Point2f> DetectCorners(const cv::Mat& gray, const FeatureOptions& options,
+                                       const std::vector<cv::Point2f>& existing, int max_new) {
+  CV_Assert(gray.type() == CV_8UC1);
+  const int cells = options.grid_columns * options.grid_rows;
+  const int spacing = static_cast<int>(std::ceil(options.min_distance_px));
+  // Free pixels: inside the border and away from every point taken.
+  cv::Mat free(gray.size(), CV_8U, cv::Scalar(0));
+  const cv::Rect inner(options.border_px, options.border_px, gray.cols - 2 * options.border_px,
+                       gray.rows - 2 * options.border_px);
+  if (inner.width <= 0 || inner.height <= 0 || max_new <= 0) return {};
+  free(inner).setTo(255);
+  std::vector<int> held(cells, 0);
+  for (const cv::Point2f& p : existing) {
+    ++held[GridCell(p, gray.size(), options)];
+    if (spacing > 0) cv::circle(free, p, spacing, cv::Scalar(0), cv::FILLED);
+  }
+
+  std::vector<cv::KeyPoint> corners;
+  cv::FastFeatureDetector::create(options.fast_threshold, true)->detect(gray, corners, free);
+  std::sort(corners.begin(), corners.end(),
+            [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
+
+  // Strongest first within each cell, keeping new corners apart.
+  std::vector<std::vector<cv::Point2f>> taken(cells);
+  int total = 0;
+  for (const cv::KeyPoint& corner : corners) {
+    const int cell = GridCell(corner.pt, gray.size(), options);
+    if (held[cell] + int(taken[cell].size()) >= options.max_per_cell) continue;
+    const cv::Point pixel(cvRound(corner.pt.x), cvRound(corner.pt.y));
+    if (!free.at<uint8_t>(pixel)) continue;
+    taken[cell].push_back(corner.pt);
+    ++total;
+    if (spacing > 0) cv::circle(free, pixel, spacing, cv::Scalar(0), cv::FILLED);
+  }
+
+  // Cells with nothing at all get a second look at a lower threshold: a weak corner
+  // there is worth more than a strong one where tracks are plenty.
+  if (options.min_fast_threshold < options.fast_threshold) {
+    const auto detector = cv::FastFeatureDetector::create(options.min_fast_threshold, true);
+    for (int cell = 0; cell < cells; ++cell) {
+      if (held[cell] > 0 || !taken[cell].empty()) continue;
+      const int column = cell % options.grid_columns, row = cell / options.grid_columns;
+      const cv::Rect area(cv::Point(column * gray.cols / options.grid_columns,
+                                    row * gray.rows / options.grid_rows),
+                          cv::Point((column + 1) * gray.cols / options.grid_columns,
+                                    (row + 1) * gray.rows / options.grid_rows));
+      std::vector<cv::KeyPoint> weak;
+      detector->detect(gray(area), weak, free(area));
+      std::sort(weak.begin(), weak.end(), [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+        return a.response > b.response;
+      });
+      for (const cv::KeyPoint& corner : weak) {
+        if (int(taken[cell].size()) >= options.max_per_cell) break;
+        const cv::Point2f point = corner.pt + cv::Point2f(area.tl());
+        const cv::Point pixel(cvRound(point.x), cvRound(point.y));
+        if (GridCell(point, gray.size(), options) != cell || !free.at<uint8_t>(pixel)) continue;
+        taken[cell].push_back(point);
+        ++total;
+        if (spacing > 0) cv::circle(free, pixel, spacing, cv::Scalar(0), cv::FILLED);
+      }
+    }
+  }
+
+  // Cells take turns, the emptiest first, until max_new are chosen.
+  std::vector<int> order(cells);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return held[a] < held[b]; });
+  std::vector<cv::Point2f> chosen;
+  chosen.reserve(std::min(total, max_new));
+  for (int rank = 0; rank < options.max_per_cell && int(chosen.size()) < max_new; ++rank) {
+    for (int cell : order) {
+      if (rank < int(taken[cell].size())) chosen.push_back(taken[cell][rank]);
+      if (int(chosen.size()) == max_new) break;
+    }
+  }
+  return chosen;
+}
+
+KeypointSet DetectKeypoints(const cv::Mat& gray, const FeatureOptions& options,
+                            const cv::Mat& mask) {
+  CV_Assert(gray.type() == CV_8UC1);
+  cv::Ptr<cv::Feature2D> detector;
+  switch (options.descriptor) {
+    case DescriptorType::kOrb:
+      detector = cv::ORB::create(options.max_keypoints);
+      break;
+    case DescriptorType::kSift:
+      detector = cv::SIFT::create(options.max_keypoints);
+      break;
+  }
+  KeypointSet set;
+  detector->detectAndCompute(gray, mask, set.keypoints, set.descriptors);
+  return set;
+}
+
+std::vector<cv::DMatch> MatchKeypoints(const KeypointSet& a, const KeypointSet& b,
+                                       const FeatureOptions& options) {
+  if (a.descriptors.empty() || b.descriptors.empty()) return {};
+  if (a.descriptors.type() != b.descriptors.type() || a.descriptors.cols != b.descriptors.cols) {
+    throw Error("MatchKeypoints: the two sets hold different kinds of descriptor");
+  }
+  const int norm = a.descriptors.depth() == CV_8U ? cv::NORM_HAMMING : cv::NORM_L2;
+  cv::BFMatcher matcher(norm);
+  std::vector<std::vector<cv::DMatch>> forward;
+  std::vector<cv::DMatch> backward;
+  matcher.knnMatch(a.descriptors, b.descriptors, forward, 2);
+  matcher.match(b.descriptors, a.descriptors, backward);
+  std::vector<cv::DMatch> matches;
+  for (const std::vector<cv::DMatch>& candidates : forward) {
+    if (candidates.empty()) continue;
+    const cv::DMatch& best = candidates[0];
+    if (candidates.size() > 1 && best.distance >= options.match_ratio * candidates[1].distance) {
+      continue;
+    }
+    if (backward[best.trainIdx].trainIdx != best.queryIdx) continue;
+    matches.push_back(best);
+  }
+  return matches;
+}
+
+}  // namespace autocal

@@ -1,0 +1,744 @@
+#include "pipeline/planes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <unordered_map>
+
+#include <Eigen/Geometry>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace autocal {
+namespace {
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+// RANSAC's confidence that no better model was missed.
+constexpr double kConfidence = 0.995;
+// Attempts at a new plane per frame whose inliers are too few or too crowded.
+constexpr int kDetectAttempts = 4;
+
+cv::Point2f Transfer(const cv::Matx33d& h, const cv::Point2f& p) {
+  const cv::Vec3d q = h * cv::Vec3d(p.x, p.y, 1.0);
+  return {static_cast<float>(q[0] / q[2]), static_cast<float>(q[1] / q[2])};
+}
+
+double Distance(const cv::Point2f& a, const cv::Point2f& b) { return cv::norm(a - b); }
+
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / M_PI;
+}
+
+double RotationAngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  const double c = std::clamp(((a.transpose() * b).trace() - 1.0) / 2.0, -1.0, 1.0);
+  return std::acos(c) * 180.0 / M_PI;
+}
+
+std::vector<cv::Point2f> Hull(const std::vector<cv::Point2f>& points) {
+  std::vector<cv::Point2f> hull;
+  if (points.size() >= 3) cv::convexHull(points, hull);
+  return hull;
+}
+
+double AreaFraction(const std::vector<cv::Point2f>& hull, cv::Size size) {
+  return hull.size() < 3 ? 0.0 : cv::contourArea(hull) / (double(size.width) * size.height);
+}
+
+// Standard deviation of points across their narrowest direction, over the image diagonal.
+double NarrowSpread(const std::vector<cv::Point2f>& points, cv::Size size) {
+  if (points.size() < 3) return 0.0;
+  cv::Mat samples(int(points.size()), 2, CV_32F, const_cast<cv::Point2f*>(points.data()));
+  cv::Mat covariance, mean;
+  cv::calcCovarMatrix(samples, covariance, mean, cv::COVAR_NORMAL | cv::COVAR_ROWS | cv::COVAR_SCALE);
+  cv::Mat eigenvalues;
+  cv::eigen(covariance, eigenvalues);
+  return std::sqrt(std::max(0.0, eigenvalues.at<double>(1))) / std::hypot(size.width, size.height);
+}
+
+bool Distorted(const CameraIntrinsics& camera) {
+  const auto d = camera.Distortion();
+  return std::any_of(d.begin(), d.end(), [](double k) { return k != 0.0; });
+}
+
+cv::Matx33d CameraMatrix(const CameraIntrinsics& camera) {
+  return {camera.fx, 0.0, camera.cx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 1.0};
+}
+
+// Robust homography from `from` to `to`; inliers flagged in `mask`. Empty on failure.
+cv::Matx33d FitHomography(const std::vector<cv::Point2f>& from, const std::vector<cv::Point2f>& to,
+                          double threshold_px, int iterations, std::vector<uchar>* mask,
+                          bool* ok) {
+  *ok = false;
+  if (from.size() < 4) return cv::Matx33d::eye();
+  const cv::Mat h =
+      cv::findHomography(from, to, cv::RANSAC, threshold_px, *mask, iterations, kConfidence);
+  if (h.empty()) return cv::Matx33d::eye();
+  *ok = true;
+  return cv::Matx33d(h);
+}
+
+// The smallest translation over distance among the decompositions: under pure rotation
+// every decomposition has none.
+double Parallax(const std::vector<PlaneMotion>& motions) {
+  double parallax = kInfinity;
+  for (const PlaneMotion& m : motions) {
+    parallax = std::min(parallax, m.translation_over_distance.norm());
+  }
+  return motions.empty() ? 0.0 : parallax;
+}
+
+}  // namespace
+
+bool PlaneOptions::Check(std::string* error) const {
+  std::ostringstream why;
+  if (baseline_frames < 1) {
+    why << "baseline_frames must be at least 1";
+  } else if (!(inlier_threshold_px > 0)) {
+    why << "inlier_threshold_px must be positive";
+  } else if (!(eject_threshold_px >= inlier_threshold_px)) {
+    why << "eject_threshold_px must be at least inlier_threshold_px";
+  } else if (!(join_radius > 0)) {
+    why << "join_radius must be positive";
+  } else if (ransac_iterations < 10) {
+    why << "ransac_iterations must be at least 10";
+  } else if (min_inliers < 4) {
+    why << "min_inliers must be at least 4 (a homography needs 4 points)";
+  } else if (!(min_area_fraction >= 0 && min_area_fraction < 1)) {
+    why << "min_area_fraction must be in [0, 1)";
+  } else if (min_tracks_to_keep < 4 || min_tracks_to_keep > min_inliers) {
+    why << "min_tracks_to_keep must be in [4, min_inliers]";
+  } else if (!(min_parallax >= 0)) {
+    why << "min_parallax must not be negative";
+  } else if (!(min_spread >= 0)) {
+    why << "min_spread must not be negative";
+  } else if (max_planes < 1) {
+    why << "max_planes must be at least 1";
+  } else if (max_reference_frames <= baseline_frames) {
+    why << "max_reference_frames must exceed baseline_frames";
+  } else if (!(merge_fraction > 0 && merge_fraction <= 1)) {
+    why << "merge_fraction must be in (0, 1]";
+  } else if (normal_votes < 1) {
+    why << "normal_votes must be at least 1";
+  } else if (!(normal_agreement_deg > 0 && normal_agreement_deg < 90)) {
+    why << "normal_agreement_deg must be in (0, 90)";
+  } else if (!(shot_inlier_threshold_px > 0)) {
+    why << "shot_inlier_threshold_px must be positive";
+  }
+  if (why.str().empty()) return true;
+  if (error) *error = why.str();
+  return false;
+}
+
+std::vector<cv::Point2f> UndistortPixels(const std::vector<cv::Point2f>& points,
+                                         const CameraIntrinsics& camera) {
+  if (points.empty() || !Distorted(camera)) return points;
+  const auto d = camera.Distortion();
+  const cv::Matx33d k = CameraMatrix(camera);
+  std::vector<cv::Point2f> undistorted;
+  // OpenCV's default of 5 fixed-point steps falls short on a strong barrel's corners.
+  cv::undistortPoints(points, undistorted, k, std::vector<double>(d.begin(), d.end()),
+                      cv::noArray(), k,
+                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-6));
+  return undistorted;
+}
+
+std::vector<PlaneMotion> DecomposePlaneHomography(const cv::Matx33d& homography,
+                                                  const CameraIntrinsics& camera,
+                                                  const std::vector<cv::Point2f>& reference,
+                                                  const std::vector<cv::Point2f>& current) {
+  std::vector<cv::Mat> rotations, translations, normals;
+  cv::decomposeHomographyMat(homography, CameraMatrix(camera), rotations, translations, normals);
+  // The visibility test works on rays, i.e. normalized coordinates.
+  auto normalized = [&](const std::vector<cv::Point2f>& pixels) {
+    std::vector<cv::Point2f> rays;
+    rays.reserve(pixels.size());
+    for (const cv::Point2f& p : pixels) {
+      rays.emplace_back(float((p.x - camera.cx) / camera.fx), float((p.y - camera.cy) / camera.fy));
+    }
+    return rays;
+  };
+  std::vector<int> valid;
+  cv::filterHomographyDecompByVisibleRefpoints(rotations, normals, normalized(reference),
+                                               normalized(current), valid);
+  std::vector<PlaneMotion> motions;
+  for (int i : valid) {
+    PlaneMotion m;
+    cv::cv2eigen(rotations[i], m.rotation);
+    cv::cv2eigen(translations[i], m.translation_over_distance);
+    Eigen::Vector3d n;
+    cv::cv2eigen(normals[i], n);
+    // OpenCV's normal points from the camera to the plane (n.X = d > 0 on it).
+    m.normal_reference = -n.normalized();
+    motions.push_back(m);
+  }
+  return motions;
+}
+
+// What one Update works on.
+struct PlaneTracker::Frame {
+  int64_t t_ns = 0;
+  int64_t base_t_ns = 0;  // The frame baseline_frames ago.
+  const std::vector<Track>* tracks = nullptr;
+  const CameraIntrinsics* camera = nullptr;
+  std::unordered_map<int, int> index;  // Track id -> index in *tracks.
+  std::vector<cv::Point2f> now;        // Per track: undistorted position now...
+  std::vector<cv::Point2f> base;       // ...and in the baseline frame,
+  std::vector<bool> has_base;          // if it was tracked then.
+
+  cv::Size size() const { return {camera->width, camera->height}; }
+  // Indices of the tracks of `members` that are tracked since the baseline frame.
+  std::vector<int> Based(const std::map<int, cv::Point2f>& members) const {
+    std::vector<int> based;
+    for (const auto& [id, point] : members) {
+      const auto it = index.find(id);
+      if (it != index.end() && has_base[it->second]) based.push_back(it->second);
+    }
+    return based;
+  }
+  double RecentError(const cv::Matx33d& recent, int track) const {
+    return Distance(Transfer(recent, base[track]), now[track]);
+  }
+};
+
+PlaneTracker::PlaneTracker(const PlaneOptions& options) : options_(options) {}
+
+const cv::Matx33d* PlaneTracker::State::ChainAt(int64_t t_ns) const {
+  const auto it = std::lower_bound(chain.begin(), chain.end(), t_ns,
+                                   [](const auto& entry, int64_t t) { return entry.first < t; });
+  return it != chain.end() && it->first == t_ns ? &it->second : nullptr;
+}
+
+bool PlaneTracker::FollowRecent(State* state, const Frame& frame) const {
+  std::erase_if(state->members, [&](const auto& member) {
+    const auto it = frame.index.find(member.first);
+    return it == frame.index.end() || !frame.has_base[it->second];
+  });
+  if (int(state->members.size()) < options_.min_tracks_to_keep) return false;
+  std::vector<cv::Point2f> base, now;
+  for (int i : frame.Based(state->members)) {
+    base.push_back(frame.base[i]);
+    now.push_back(frame.now[i]);
+  }
+  std::vector<uchar> mask;
+  bool ok = false;
+  state->recent = FitHomography(base, now, options_.eject_threshold_px,
+                                options_.ransac_iterations, &mask, &ok);
+  return ok;
+}
+
+bool PlaneTracker::Near(const State& state, const Frame& frame, int track) const {
+  const double radius = options_.join_radius * std::hypot(frame.camera->width, frame.camera->height);
+  const cv::Point2f& p = frame.now[track];
+  return std::any_of(state.members.begin(), state.members.end(), [&](const auto& member) {
+    return Distance(frame.now[frame.index.at(member.first)], p) <= radius;
+  });
+}
+
+std::vector<std::vector<int>> PlaneTracker::Assign(const Frame& frame) {
+  std::vector<int> owner(frame.tracks->size(), -1);
+  for (size_t s = 0; s < states_.size(); ++s) {
+    for (const auto& [id, point] : states_[s].members) owner[frame.index.at(id)] = int(s);
+  }
+  std::vector<std::vector<int>> joiners(states_.size());
+  for (size_t i = 0; i < frame.tracks->size(); ++i) {
+    if (!frame.has_base[i]) continue;
+    double best = kInfinity, second = kInfinity;
+    int chosen = -1;
+    double own = kInfinity;
+    for (size_t s = 0; s < states_.size(); ++s) {
+      const double error = frame.RecentError(states_[s].recent, int(i));
+      if (int(s) == owner[i]) own = error;
+      if (error < best) {
+        second = best;
+        best = error;
+        chosen = int(s);
+      } else {
+        second = std::min(second, error);
+      }
+    }
+    // Points near where two planes meet, or where parallax is too small to tell planes
+    // apart, fit more than one: they belong to none.
+    if (owner[i] >= 0) {
+      const bool other_fits = chosen != owner[i] ? best <= options_.inlier_threshold_px
+                                                 : second <= options_.inlier_threshold_px;
+      if (own > options_.eject_threshold_px || other_fits) {
+        states_[owner[i]].members.erase((*frame.tracks)[i].id);
+      }
+    } else if (chosen >= 0 && best <= options_.inlier_threshold_px &&
+               second > options_.eject_threshold_px && Near(states_[chosen], frame, int(i))) {
+      joiners[chosen].push_back(int(i));
+    }
+  }
+  return joiners;
+}
+
+bool PlaneTracker::FollowReference(State* state, const Frame& frame,
+                                   const std::vector<int>& joiners) const {
+  std::vector<int> ids;
+  std::vector<cv::Point2f> reference, now;
+  for (const auto& [id, point] : state->members) {
+    ids.push_back(id);
+    reference.push_back(point);
+    now.push_back(frame.now[frame.index.at(id)]);
+  }
+  std::vector<uchar> mask;
+  bool ok = false;
+  const cv::Matx33d h = FitHomography(reference, now, options_.eject_threshold_px,
+                                      options_.ransac_iterations, &mask, &ok);
+  if (!ok) return false;
+  // Members that drifted from their reference point (tracks drift as the view of their
+  // patch changes) still follow the plane over the baseline: they stay, outside the fit,
+  // until the reference moves up and measures them afresh.
+  const cv::Matx33d inverse = h.inv();
+  for (int i : joiners) {
+    state->members.emplace((*frame.tracks)[i].id, Transfer(inverse, frame.now[i]));
+  }
+  state->homography = h;
+  state->chain.emplace_back(frame.t_ns, h);
+  ++state->age;
+  return true;
+}
+
+void PlaneTracker::Merge(const Frame& frame) {
+  auto fitting = [&](const State& model, const std::vector<int>& tracks) {
+    return std::count_if(tracks.begin(), tracks.end(), [&](int i) {
+      return frame.RecentError(model.recent, i) <= options_.eject_threshold_px;
+    });
+  };
+  for (size_t a = 0; a < states_.size(); ++a) {
+    for (size_t b = a + 1; b < states_.size();) {
+      const std::vector<int> in_a = frame.Based(states_[a].members);
+      const std::vector<int> in_b = frame.Based(states_[b].members);
+      bool merge = fitting(states_[a], in_b) >= options_.merge_fraction * in_b.size() ||
+                   fitting(states_[b], in_a) >= options_.merge_fraction * in_a.size();
+      if (merge) {
+        // One homography for both, or two planes after all.
+        std::vector<cv::Point2f> base, now;
+        for (const std::vector<int>* set : {&in_a, &in_b}) {
+          for (int i : *set) {
+            base.push_back(frame.base[i]);
+            now.push_back(frame.now[i]);
+          }
+        }
+        std::vector<uchar> mask;
+        bool ok = false;
+        FitHomography(base, now, options_.eject_threshold_px, options_.ransac_iterations, &mask,
+                      &ok);
+        merge = ok && std::count(mask.begin(), mask.end(), 1) >= options_.merge_fraction * mask.size();
+      }
+      if (!merge) {
+        ++b;
+        continue;
+      }
+      // The older plane keeps its id and takes the other's tracks.
+      const cv::Matx33d inverse = states_[a].homography.inv();
+      for (const auto& [id, point] : states_[b].members) {
+        states_[a].members.emplace(id, Transfer(inverse, frame.now[frame.index.at(id)]));
+      }
+      states_.erase(states_.begin() + b);
+    }
+  }
+}
+
+void PlaneTracker::Detect(const Frame& frame) {
+  std::vector<bool> owned(frame.tracks->size(), false);
+  for (const State& state : states_) {
+    for (const auto& [id, point] : state.members) owned[frame.index.at(id)] = true;
+  }
+  // Tracks that no plane holds, and that fit none: those that fit one were left out
+  // because they fit another as well.
+  std::vector<int> pool;
+  for (size_t i = 0; i < frame.tracks->size(); ++i) {
+    if (owned[i] || !frame.has_base[i]) continue;
+    if (std::none_of(states_.begin(), states_.end(), [&](const State& state) {
+          return frame.RecentError(state.recent, int(i)) <= options_.eject_threshold_px;
+        })) {
+      pool.push_back(int(i));
+    }
+  }
+  for (int attempt = 0; attempt < kDetectAttempts && int(states_.size()) < options_.max_planes;
+       ++attempt) {
+    if (int(pool.size()) < options_.min_inliers) return;
+    std::vector<cv::Point2f> base, now;
+    for (int i : pool) {
+      base.push_back(frame.base[i]);
+      now.push_back(frame.now[i]);
+    }
+    // The consensus at the looser eject threshold (tracks drift); the plane's tracks are
+    // those within the inlier threshold of its refined homography.
+    std::vector<uchar> mask;
+    bool ok = false;
+    cv::Matx33d h = FitHomography(base, now, options_.eject_threshold_px,
+                                  options_.ransac_iterations, &mask, &ok);
+    if (!ok) return;
+    std::vector<int> rest;
+    for (size_t k = 0; k < pool.size(); ++k) {
+      if (!mask[k]) rest.push_back(pool[k]);
+    }
+    auto core = [&] {
+      std::vector<size_t> in;
+      for (size_t k = 0; k < pool.size(); ++k) {
+        if (mask[k] && Distance(Transfer(h, base[k]), now[k]) <= options_.inlier_threshold_px) {
+          in.push_back(k);
+        }
+      }
+      return in;
+    };
+    std::vector<size_t> in = core();
+    if (in.size() >= 4) {
+      std::vector<cv::Point2f> from, to;
+      for (size_t k : in) {
+        from.push_back(base[k]);
+        to.push_back(now[k]);
+      }
+      const cv::Mat refined = cv::findHomography(from, to, 0);
+      if (!refined.empty()) {
+        h = cv::Matx33d(refined);
+        in = core();
+      }
+    }
+    std::vector<int> inliers;
+    std::vector<cv::Point2f> inlier_base, inlier_now, inlier_pixels;
+    for (size_t k : in) {
+      inliers.push_back(pool[k]);
+      inlier_base.push_back(base[k]);
+      inlier_now.push_back(now[k]);
+      inlier_pixels.push_back((*frame.tracks)[pool[k]].current());
+    }
+    if (int(inliers.size()) < options_.min_inliers) return;
+    // Without parallax every plane fits the homography of the rotation: nothing to find.
+    if (Parallax(DecomposePlaneHomography(h, *frame.camera, inlier_base, inlier_now)) <
+        options_.min_parallax) {
+      return;
+    }
+    pool = std::move(rest);
+    if (AreaFraction(Hull(inlier_pixels), frame.size()) < options_.min_area_fraction) continue;
+
+    State state;
+    state.id = next_id_++;
+    state.reference_t_ns = frame.base_t_ns;
+    state.homography = state.recent = h;
+    for (size_t k = 0; k < inliers.size(); ++k) {
+      state.members.emplace((*frame.tracks)[inliers[k]].id, inlier_base[k]);
+    }
+    // The chain over the baseline: every inlier is seen in every frame since the base.
+    for (auto t = frame_times_.end() - 1 - options_.baseline_frames; t + 1 != frame_times_.end();
+         ++t) {
+      std::vector<cv::Point2f> at;
+      for (int i : inliers) {
+        const Track& track = (*frame.tracks)[i];
+        at.push_back(ideal_.at(track.id)[track.At(*t) - track.history.data()]);
+      }
+      const cv::Mat fit = cv::findHomography(inlier_base, at, 0);
+      state.chain.emplace_back(*t, fit.empty() ? cv::Matx33d::eye() : cv::Matx33d(fit));
+    }
+    state.chain.emplace_back(frame.t_ns, h);
+    states_.push_back(std::move(state));
+  }
+}
+
+void PlaneTracker::Reanchor(State* state, const Frame& frame) const {
+  // The new reference is the baseline frame, where every member was measured.
+  const cv::Matx33d* to_base = state->ChainAt(frame.base_t_ns);
+  if (!to_base) return;
+  const cv::Matx33d old_to_new = *to_base;
+  const cv::Matx33d new_to_old = old_to_new.inv();
+  // The chosen normal and the votes turn with the camera between the two references.
+  std::optional<Eigen::Matrix3d> turn;
+  if (state->normal_reference) {
+    std::vector<cv::Point2f> before, after;
+    for (const auto& [id, point] : state->members) {
+      before.push_back(point);
+      after.push_back(Transfer(old_to_new, point));
+    }
+    double best = kInfinity;
+    for (const PlaneMotion& m : DecomposePlaneHomography(old_to_new, *frame.camera, before, after)) {
+      const double angle = AngleDeg(m.normal_reference, *state->normal_reference);
+      if (angle < best) {
+        best = angle;
+        turn = m.rotation;
+      }
+    }
+  }
+  for (auto& [id, point] : state->members) point = frame.base[frame.index.at(id)];
+  while (!state->chain.empty() && state->chain.front().first < frame.base_t_ns) {
+    state->chain.pop_front();
+  }
+  for (auto& [t, h] : state->chain) h = h * new_to_old;
+  state->chain.back().second = state->homography = state->recent;
+  state->reference_t_ns = frame.base_t_ns;
+  if (turn) {
+    state->normal_reference = *turn * *state->normal_reference;
+    for (auto& candidates : state->votes) {
+      for (Eigen::Vector3d& n : candidates) n = *turn * n;
+    }
+  } else {
+    state->normal_reference.reset();
+    state->votes.clear();
+  }
+}
+
+void PlaneTracker::Orient(State* state, const Frame& frame) const {
+  std::vector<cv::Point2f> reference, current;
+  for (const auto& [id, point] : state->members) {
+    reference.push_back(point);
+    current.push_back(frame.now[frame.index.at(id)]);
+  }
+  const std::vector<PlaneMotion> candidates =
+      DecomposePlaneHomography(state->homography, *frame.camera, reference, current);
+  state->motion.reset();
+  if (candidates.empty() || NarrowSpread(current, frame.size()) < options_.min_spread) return;
+  if (Parallax(candidates) >= options_.min_parallax) {
+    std::vector<Eigen::Vector3d> normals;
+    for (const PlaneMotion& m : candidates) normals.push_back(m.normal_reference);
+    state->votes.push_back(std::move(normals));
+    while (int(state->votes.size()) > options_.normal_votes) state->votes.pop_front();
+    // The true normal is the same in every frame; the other solution moves with the
+    // direction of travel. The candidate most earlier frames agree with wins, once it
+    // has a clear majority.
+    std::vector<int> support(candidates.size(), 0);
+    for (size_t c = 0; c < candidates.size(); ++c) {
+      for (const auto& earlier : state->votes) {
+        for (const Eigen::Vector3d& n : earlier) {
+          if (AngleDeg(n, candidates[c].normal_reference) <= options_.normal_agreement_deg) {
+            ++support[c];
+            break;
+          }
+        }
+      }
+    }
+    const size_t b = std::max_element(support.begin(), support.end()) - support.begin();
+    bool rival = false;
+    for (size_t c = 0; c < candidates.size(); ++c) {
+      rival |= c != b && support[c] >= support[b] &&
+               AngleDeg(candidates[c].normal_reference, candidates[b].normal_reference) >
+                   options_.normal_agreement_deg;
+    }
+    if (!rival && 2 * support[b] > int(state->votes.size())) {
+      state->normal_reference = candidates[b].normal_reference;
+    }
+  }
+  if (!state->normal_reference) return;
+  // The decomposition of this frame that agrees with the chosen normal.
+  double best = kInfinity;
+  for (const PlaneMotion& m : candidates) {
+    const double angle = AngleDeg(m.normal_reference, *state->normal_reference);
+    if (angle < best) {
+      best = angle;
+      state->motion = m;
+    }
+  }
+}
+
+DominantPlane PlaneTracker::Describe(const State& state, const Frame& frame) const {
+  DominantPlane plane;
+  plane.id = state.id;
+  plane.age = state.age;
+  plane.reference_t_ns = state.reference_t_ns;
+  plane.homography = state.homography;
+  for (const auto& [id, point] : state.members) {
+    plane.track_ids.push_back(id);
+    plane.points.push_back((*frame.tracks)[frame.index.at(id)].current());
+    plane.reference_points.push_back(point);
+  }
+  plane.outline = Hull(plane.points);
+  plane.area_fraction = AreaFraction(plane.outline, frame.size());
+  plane.motion = state.motion;
+  if (state.motion) plane.normal = state.motion->rotation * *state.normal_reference;
+  return plane;
+}
+
+void PlaneTracker::Update(int64_t t_ns, const std::vector<Track>& tracks,
+                          const CameraIntrinsics& camera) {
+  frame_times_.push_back(t_ns);
+  while (int(frame_times_.size()) > options_.max_reference_frames + options_.baseline_frames + 2) {
+    frame_times_.pop_front();
+  }
+
+  // Undistorted histories: only the newest point of each track is new, unless the
+  // calibration changed.
+  const bool same_camera = camera == ideal_camera_;
+  std::map<int, std::vector<cv::Point2f>> ideal;
+  std::vector<cv::Point2f> raw;
+  std::vector<std::pair<int, int>> slots;  // (track id, index in its history)
+  for (const Track& track : tracks) {
+    std::vector<cv::Point2f>& points = ideal[track.id];
+    points.resize(track.history.size());
+    const auto old = ideal_.find(track.id);
+    size_t fresh = 0;
+    if (same_camera && old != ideal_.end() && old->second.size() + 1 >= track.history.size()) {
+      std::copy(old->second.end() - (track.history.size() - 1), old->second.end(), points.begin());
+      fresh = track.history.size() - 1;
+    }
+    for (size_t k = fresh; k < track.history.size(); ++k) {
+      raw.push_back(track.history[k].pixel);
+      slots.emplace_back(track.id, int(k));
+    }
+  }
+  const std::vector<cv::Point2f> undistorted = UndistortPixels(raw, camera);
+  for (size_t k = 0; k < slots.size(); ++k) ideal[slots[k].first][slots[k].second] = undistorted[k];
+  ideal_ = std::move(ideal);
+  ideal_camera_ = camera;
+
+  planes_.clear();
+  if (int(frame_times_.size()) <= options_.baseline_frames) return;
+  Frame frame;
+  frame.t_ns = t_ns;
+  frame.base_t_ns = frame_times_[frame_times_.size() - 1 - options_.baseline_frames];
+  frame.tracks = &tracks;
+  frame.camera = &camera;
+  frame.now.resize(tracks.size());
+  frame.base.resize(tracks.size());
+  frame.has_base.resize(tracks.size());
+  for (size_t i = 0; i < tracks.size(); ++i) {
+    const std::vector<cv::Point2f>& points = ideal_.at(tracks[i].id);
+    frame.index.emplace(tracks[i].id, int(i));
+    frame.now[i] = points.back();
+    const TrackPoint* at_base = tracks[i].At(frame.base_t_ns);
+    frame.has_base[i] = at_base != nullptr;
+    if (at_base) frame.base[i] = points[at_base - tracks[i].history.data()];
+  }
+
+  std::erase_if(states_, [&](State& state) { return !FollowRecent(&state, frame); });
+  const std::vector<std::vector<int>> joiners = Assign(frame);
+  std::vector<State> followed;
+  for (size_t s = 0; s < states_.size(); ++s) {
+    if (int(states_[s].members.size()) >= options_.min_tracks_to_keep &&
+        FollowReference(&states_[s], frame, joiners[s])) {
+      followed.push_back(std::move(states_[s]));
+    }
+  }
+  states_ = std::move(followed);
+  for (State& state : states_) {
+    const auto reference = std::lower_bound(frame_times_.begin(), frame_times_.end(),
+                                            state.reference_t_ns);
+    if (frame_times_.end() - reference > options_.max_reference_frames) Reanchor(&state, frame);
+  }
+  Merge(frame);
+  Detect(frame);
+  for (State& state : states_) {
+    Orient(&state, frame);
+    planes_.push_back(Describe(state, frame));
+  }
+}
+
+std::vector<ShotPlane> FindPlanesBetweenShots(const KeypointSet& a, const KeypointSet& b,
+                                              const CameraIntrinsics& camera,
+                                              const PlaneOptions& options,
+                                              const FeatureOptions& features) {
+  const std::vector<cv::DMatch> matches = MatchKeypoints(a, b, features);
+  std::vector<cv::Point2f> raw_a, raw_b;
+  for (const cv::DMatch& m : matches) {
+    raw_a.push_back(a.keypoints[m.queryIdx].pt);
+    raw_b.push_back(b.keypoints[m.trainIdx].pt);
+  }
+  const std::vector<cv::Point2f> ideal_a = UndistortPixels(raw_a, camera);
+  const std::vector<cv::Point2f> ideal_b = UndistortPixels(raw_b, camera);
+  auto pick = [](const std::vector<cv::Point2f>& points, const std::vector<int>& indices) {
+    std::vector<cv::Point2f> picked;
+    for (int i : indices) picked.push_back(points[i]);
+    return picked;
+  };
+
+  // One robust fit after another on the matches left over.
+  struct Found {
+    cv::Matx33d homography;
+    std::vector<int> inliers;  // Indices into `matches`.
+  };
+  std::vector<Found> found;
+  std::vector<int> pool(matches.size());
+  std::iota(pool.begin(), pool.end(), 0);
+  for (int attempt = 0; attempt < kDetectAttempts + options.max_planes &&
+                        int(found.size()) < options.max_planes &&
+                        int(pool.size()) >= options.min_inliers;
+       ++attempt) {
+    std::vector<uchar> mask;
+    bool ok = false;
+    const cv::Matx33d h = FitHomography(pick(ideal_a, pool), pick(ideal_b, pool),
+                                        options.shot_inlier_threshold_px,
+                                        options.ransac_iterations, &mask, &ok);
+    if (!ok) break;
+    Found plane{h, {}};
+    std::vector<int> rest;
+    for (size_t k = 0; k < pool.size(); ++k) (mask[k] ? plane.inliers : rest).push_back(pool[k]);
+    if (int(plane.inliers.size()) < options.min_inliers) break;
+    pool = std::move(rest);
+    if (AreaFraction(Hull(pick(raw_b, plane.inliers)), {camera.width, camera.height}) >=
+        options.min_area_fraction) {
+      found.push_back(std::move(plane));
+    }
+  }
+  // Keypoints far from their image's detail scale miss a tight threshold: a plane whose
+  // matches an earlier one explains within twice it is the same plane.
+  for (size_t i = 0; i < found.size(); ++i) {
+    for (size_t j = i + 1; j < found.size();) {
+      const auto fits = std::count_if(found[j].inliers.begin(), found[j].inliers.end(), [&](int k) {
+        return Distance(Transfer(found[i].homography, ideal_a[k]), ideal_b[k]) <=
+               2.0 * options.shot_inlier_threshold_px;
+      });
+      if (fits < options.merge_fraction * found[j].inliers.size()) {
+        ++j;
+        continue;
+      }
+      found[i].inliers.insert(found[i].inliers.end(), found[j].inliers.begin(),
+                              found[j].inliers.end());
+      const cv::Mat refit = cv::findHomography(pick(ideal_a, found[i].inliers),
+                                               pick(ideal_b, found[i].inliers), 0);
+      if (!refit.empty()) found[i].homography = cv::Matx33d(refit);
+      found.erase(found.begin() + j);
+    }
+  }
+
+  std::vector<ShotPlane> planes;
+  for (const Found& f : found) {
+    ShotPlane plane;
+    plane.homography = f.homography;
+    for (int k : f.inliers) plane.matches.push_back(matches[k]);
+    plane.outline_a = Hull(pick(raw_a, f.inliers));
+    plane.outline_b = Hull(pick(raw_b, f.inliers));
+    plane.motions = DecomposePlaneHomography(f.homography, camera, pick(ideal_a, f.inliers),
+                                             pick(ideal_b, f.inliers));
+    planes.push_back(std::move(plane));
+  }
+
+  // Every plane saw the same camera motion: of each plane's decompositions keep the one
+  // whose rotation the other planes agree with, where that is clear.
+  std::vector<std::vector<PlaneMotion>> chosen(planes.size());
+  for (size_t p = 0; p < planes.size(); ++p) {
+    chosen[p] = planes[p].motions;
+    if (planes[p].motions.size() < 2) continue;
+    std::vector<double> disagreement;
+    for (const PlaneMotion& candidate : planes[p].motions) {
+      double total = 0.0;
+      for (size_t q = 0; q < planes.size(); ++q) {
+        if (q == p || planes[q].motions.empty()) continue;
+        double closest = kInfinity;
+        for (const PlaneMotion& other : planes[q].motions) {
+          closest = std::min(closest, RotationAngleDeg(candidate.rotation, other.rotation));
+        }
+        total += closest;
+      }
+      disagreement.push_back(total);
+    }
+    const size_t best = std::min_element(disagreement.begin(), disagreement.end()) -
+                        disagreement.begin();
+    const double next = [&] {
+      double n = kInfinity;
+      for (size_t c = 0; c < disagreement.size(); ++c) {
+        if (c != best) n = std::min(n, disagreement[c]);
+      }
+      return n;
+    }();
+    // A degree or more apart: the rotations of the two solutions differ by far more than
+    // the noise of the fit.
+    if (next - disagreement[best] >= 1.0) chosen[p] = {planes[p].motions[best]};
+  }
+  for (size_t p = 0; p < planes.size(); ++p) planes[p].motions = std::move(chosen[p]);
+  return planes;
+}
+
+}  // namespace autocal

@@ -1,0 +1,304 @@
+// Box 6: homography decomposition, plane tracking on synthetic tracks with known planes,
+// and planes between two rendered still shots.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <random>
+#include <set>
+
+#include <gtest/gtest.h>
+#include <Eigen/Geometry>
+#include <opencv2/core/eigen.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "devices/sim/renderer.h"
+#include "devices/sim/scene.h"
+#include "devices/sim/simulator.h"
+#include "pipeline/planes.h"
+#include "tests/sim_test_util.h"
+
+namespace autocal {
+namespace {
+
+double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / M_PI;
+}
+
+CameraIntrinsics TestCamera() { return CameraIntrinsics::FromFieldOfView(320, 240, 75.0); }
+
+TEST(PlaneOptions, DefaultsAreValidAndFaultsAreNamed) {
+  std::string error;
+  EXPECT_TRUE(PlaneOptions().Check(&error)) << error;
+  auto fails_on = [](auto change, const std::string& field) {
+    PlaneOptions options;
+    change(&options);
+    std::string message;
+    EXPECT_FALSE(options.Check(&message)) << field;
+    EXPECT_NE(message.find(field), std::string::npos) << message;
+  };
+  fails_on([](PlaneOptions* o) { o->baseline_frames = 0; }, "baseline_frames");
+  fails_on([](PlaneOptions* o) { o->inlier_threshold_px = 0; }, "inlier_threshold_px");
+  fails_on([](PlaneOptions* o) { o->eject_threshold_px = 0.5; }, "eject_threshold_px");
+  fails_on([](PlaneOptions* o) { o->join_radius = 0; }, "join_radius");
+  fails_on([](PlaneOptions* o) { o->ransac_iterations = 1; }, "ransac_iterations");
+  fails_on([](PlaneOptions* o) { o->min_inliers = 3; }, "min_inliers");
+  fails_on([](PlaneOptions* o) { o->min_area_fraction = 1; }, "min_area_fraction");
+  fails_on([](PlaneOptions* o) { o->min_tracks_to_keep = 30; }, "min_tracks_to_keep");
+  fails_on([](PlaneOptions* o) { o->min_parallax = -1; }, "min_parallax");
+  fails_on([](PlaneOptions* o) { o->min_spread = -1; }, "min_spread");
+  fails_on([](PlaneOptions* o) { o->max_planes = 0; }, "max_planes");
+  fails_on([](PlaneOptions* o) { o->max_reference_frames = 5; }, "max_reference_frames");
+  fails_on([](PlaneOptions* o) { o->merge_fraction = 0; }, "merge_fraction");
+  fails_on([](PlaneOptions* o) { o->normal_votes = 0; }, "normal_votes");
+  fails_on([](PlaneOptions* o) { o->normal_agreement_deg = 90; }, "normal_agreement_deg");
+  fails_on([](PlaneOptions* o) { o->shot_inlier_threshold_px = 0; }, "shot_inlier_threshold_px");
+}
+
+TEST(UndistortPixels, AgreesWithTheCameraModelOnAStrongBarrel) {
+  CameraIntrinsics camera = TestCamera();
+  camera.k1 = -0.3;
+  camera.k2 = 0.1;
+  camera.p1 = 0.001;
+  std::vector<cv::Point2f> pixels;
+  for (int y = 0; y < camera.height; y += 17) {
+    for (int x = 0; x < camera.width; x += 19) pixels.emplace_back(float(x), float(y));
+  }
+  pixels.emplace_back(0.f, 0.f);
+  pixels.emplace_back(float(camera.width - 1), float(camera.height - 1));
+  const std::vector<cv::Point2f> ideal = UndistortPixels(pixels, camera);
+  ASSERT_EQ(ideal.size(), pixels.size());
+  double worst = 0.0;
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const auto ray = Unproject(camera, {pixels[i].x, pixels[i].y});
+    ASSERT_TRUE(ray.has_value());
+    const Eigen::Vector2d expected(camera.fx * ray->x() + camera.cx, camera.fy * ray->y() + camera.cy);
+    worst = std::max(worst, (expected - Eigen::Vector2d(ideal[i].x, ideal[i].y)).norm());
+  }
+  EXPECT_LT(worst, 1e-3) << "px";
+  // Without distortion, nothing moves.
+  CameraIntrinsics pinhole = TestCamera();
+  EXPECT_EQ(UndistortPixels(pixels, pinhole), pixels);
+}
+
+Eigen::Vector2d Pixel(const CameraIntrinsics& c, const Eigen::Vector3d& p) {
+  return {c.fx * p.x() / p.z() + c.cx, c.fy * p.y() / p.z() + c.cy};
+}
+
+TEST(DecomposePlaneHomography, RecoversTheTrueMotionAndNormal) {
+  const CameraIntrinsics camera = TestCamera();
+  // A plane 3 m ahead, turned 30 deg about the vertical, facing the camera.
+  const Eigen::Vector3d normal =
+      Eigen::AngleAxisd(30.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()) * -Eigen::Vector3d::UnitZ();
+  const double distance = 3.0;  // From the reference camera.
+  const Eigen::Matrix3d rotation =
+      Eigen::AngleAxisd(0.1, Eigen::Vector3d(0.2, 1.0, 0.1).normalized()).toRotationMatrix();
+  const Eigen::Vector3d translation(0.3, -0.05, 0.2);
+  std::vector<cv::Point2f> reference, current;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  while (reference.size() < 50) {
+    // A point of the plane: a ray through the reference image hits it.
+    const Eigen::Vector3d ray((u(rng) * 0.5 * camera.width) / camera.fx,
+                              (u(rng) * 0.5 * camera.height) / camera.fy, 1.0);
+    const Eigen::Vector3d point = ray * (distance / -normal.dot(ray));
+    const Eigen::Vector3d moved = rotation * point + translation;
+    const Eigen::Vector2d a = Pixel(camera, point), b = Pixel(camera, moved);
+    reference.emplace_back(float(a.x()), float(a.y()));
+    current.emplace_back(float(b.x()), float(b.y()));
+  }
+  const Eigen::Matrix3d k = camera.CameraMatrix();
+  const Eigen::Matrix3d h =
+      k * (rotation + translation * (-normal).transpose() / distance) * k.inverse();
+  cv::Matx33d homography;
+  cv::eigen2cv(h, homography);
+  const std::vector<PlaneMotion> motions =
+      DecomposePlaneHomography(homography, camera, reference, current);
+  ASSERT_GE(motions.size(), 1u);
+  EXPECT_LE(motions.size(), 2u) << "the solutions with points behind a camera are gone";
+  const auto best = std::min_element(motions.begin(), motions.end(), [&](auto& a, auto& b) {
+    return AngleDeg(a.normal_reference, normal) < AngleDeg(b.normal_reference, normal);
+  });
+  EXPECT_LT(AngleDeg(best->normal_reference, normal), 1e-4);
+  EXPECT_LT((best->rotation - rotation).norm(), 1e-6);
+  EXPECT_LT((best->translation_over_distance - translation / distance).norm(), 1e-6);
+}
+
+// Tracks of points on a floor and a wall seen by a camera walking toward the wall, with
+// a little sway and yaw: positions measured with noise, tracks ending where points leave
+// the view.
+class SyntheticWalk {
+ public:
+  explicit SyntheticWalk(double speed_mps) : speed_(speed_mps), camera_(TestCamera()) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> across(-2.0, 2.0), along(1.0, 6.0), up(0.0, 2.5);
+    // World: camera axes at time 0 (x right, y down, z forward), floor at y = 1.4,
+    // wall at z = 6.
+    for (int i = 0; i < 500; ++i) points_.push_back({{across(rng), 1.4, along(rng)}, 1});
+    for (int i = 0; i < 500; ++i) points_.push_back({{across(rng), 1.4 - up(rng), 6.0}, 2});
+  }
+
+  // Advances to frame `k` and returns the live tracks.
+  const std::vector<Track>& Frame(int k) {
+    const double t = k / 30.0;
+    const Eigen::Matrix3d world_from_cam = WorldFromCam(t);
+    const Eigen::Vector3d position(0.1 * std::sin(2.0 * t), 0.02 * std::sin(11.0 * t), speed_ * t);
+    std::normal_distribution<double> noise(0.0, 0.1);
+    std::vector<Track> live;
+    for (size_t i = 0; i < points_.size(); ++i) {
+      const Eigen::Vector3d p = world_from_cam.transpose() * (points_[i].world - position);
+      const Eigen::Vector2d pixel = Pixel(camera_, p);
+      const bool visible = p.z() > 0.1 && pixel.x() > 5 && pixel.y() > 5 &&
+                           pixel.x() < camera_.width - 5 && pixel.y() < camera_.height - 5;
+      auto it = std::find_if(tracks_.begin(), tracks_.end(), [&](const Track& tr) { return tr.id == int(i) + 1; });
+      if (!visible || (it == tracks_.end() && ended_.count(int(i) + 1))) {
+        if (it != tracks_.end()) ended_.insert(it->id);
+        continue;
+      }
+      Track track = it == tracks_.end() ? Track{int(i) + 1, -1, {}} : *it;
+      ++track.age;
+      track.history.push_back({Time(k), cv::Point2f(float(pixel.x() + noise(rng_)),
+                                                      float(pixel.y() + noise(rng_)))});
+      if (track.history.size() > 30) track.history.erase(track.history.begin());
+      live.push_back(std::move(track));
+    }
+    tracks_ = std::move(live);
+    return tracks_;
+  }
+
+  static int64_t Time(int k) { return 1'000'000'000 + k * 33'333'333LL; }
+  Eigen::Matrix3d WorldFromCam(double t) const {
+    return Eigen::AngleAxisd(0.08 * std::sin(1.5 * t), Eigen::Vector3d::UnitY()).toRotationMatrix();
+  }
+  // Which true plane (1 floor, 2 wall) a track's point lies on.
+  int PlaneOf(int track_id) const { return points_[track_id - 1].plane; }
+  const CameraIntrinsics& camera() const { return camera_; }
+
+ private:
+  struct Point {
+    Eigen::Vector3d world;
+    int plane;
+  };
+  double speed_;
+  CameraIntrinsics camera_;
+  std::vector<Point> points_;
+  std::vector<Track> tracks_;
+  std::set<int> ended_;
+  std::mt19937 rng_{11};
+};
+
+TEST(PlaneTracker, FindsAndFollowsTheFloorAndTheWall) {
+  SyntheticWalk walk(1.2);
+  PlaneTracker tracker;
+  std::map<int, int> identity;  // Plane id -> true plane, from its first frame.
+  int frames_with_both = 0, members = 0, impure = 0;
+  std::vector<double> normal_errors;
+  const int frames = 75;
+  for (int k = 0; k < frames; ++k) {
+    tracker.Update(SyntheticWalk::Time(k), walk.Frame(k), walk.camera());
+    std::set<int> seen;
+    for (const DominantPlane& plane : tracker.planes()) {
+      ASSERT_EQ(plane.track_ids.size(), plane.points.size());
+      ASSERT_EQ(plane.track_ids.size(), plane.reference_points.size());
+      ASSERT_TRUE(std::is_sorted(plane.track_ids.begin(), plane.track_ids.end()));
+      const int on_floor = int(std::count_if(plane.track_ids.begin(), plane.track_ids.end(),
+                                             [&](int id) { return walk.PlaneOf(id) == 1; }));
+      const int truth = 2 * on_floor >= int(plane.track_ids.size()) ? 1 : 2;
+      if (!identity.count(plane.id)) identity[plane.id] = truth;
+      EXPECT_EQ(identity[plane.id], truth) << "plane " << plane.id << " changed identity";
+      for (int id : plane.track_ids) {
+        ++members;
+        impure += walk.PlaneOf(id) != truth;
+      }
+      seen.insert(truth);
+      // The reference points map onto the current ones by the homography (all but those
+      // that strayed since the reference frame and stay for following the plane lately).
+      int mapped = 0;
+      for (size_t i = 0; i < plane.points.size(); ++i) {
+        const cv::Vec3d q = plane.homography *
+                            cv::Vec3d(plane.reference_points[i].x, plane.reference_points[i].y, 1.0);
+        mapped += std::hypot(q[0] / q[2] - plane.points[i].x, q[1] / q[2] - plane.points[i].y) <=
+                  PlaneOptions().eject_threshold_px;
+      }
+      EXPECT_GE(mapped, 0.8 * plane.points.size()) << "plane " << plane.id << " frame " << k;
+      if (plane.normal) {
+        const Eigen::Matrix3d cam_from_world = walk.WorldFromCam(k / 30.0).transpose();
+        const Eigen::Vector3d truth_normal =
+            cam_from_world * (truth == 1 ? -Eigen::Vector3d::UnitY() : -Eigen::Vector3d::UnitZ());
+        normal_errors.push_back(AngleDeg(*plane.normal, truth_normal));
+      }
+    }
+    if (k >= PlaneOptions().baseline_frames + 2) frames_with_both += seen.size() == 2;
+  }
+  std::printf("%d of %d memberships on the wrong plane\n", impure, members);
+  EXPECT_LT(impure, 0.01 * members);
+  EXPECT_EQ(identity.size(), 2u) << "one id per true plane, kept throughout";
+  EXPECT_EQ(frames_with_both, frames - PlaneOptions().baseline_frames - 2);
+  ASSERT_GT(normal_errors.size(), 40u);
+  std::sort(normal_errors.begin(), normal_errors.end());
+  std::printf("%zu normals: median error %.2f deg, worst %.2f deg\n", normal_errors.size(),
+              normal_errors[normal_errors.size() / 2], normal_errors.back());
+  EXPECT_LT(normal_errors[normal_errors.size() / 2], 2.0) << "median normal error, deg";
+  EXPECT_LT(normal_errors.back(), 10.0) << "worst normal error, deg";
+}
+
+// Without translation every plane moves by the same homography: nothing can be told
+// apart, and no plane may be claimed.
+TEST(PlaneTracker, NoPlanesWithoutParallax) {
+  SyntheticWalk still(0.0);
+  PlaneTracker tracker;
+  for (int k = 0; k < 40; ++k) {
+    tracker.Update(SyntheticWalk::Time(k), still.Frame(k), still.camera());
+    EXPECT_TRUE(tracker.planes().empty()) << "frame " << k;
+  }
+}
+
+// Two views of a corner of the office, planes from matched keypoints.
+TEST(FindPlanesBetweenShots, FloorAndWallFromTwoViews) {
+  Scenario scenario = LoadScenario("office");
+  ApplyScenarioOverride(&scenario, "resolution", "640x480");
+  const std::shared_ptr<const Scene> scene = BuildScene(scenario);
+  const Renderer renderer(scene);
+  const CameraIntrinsics camera = MakeSimulatedSequence(scenario)->ground_truth()->front().intrinsics;
+  // Looking at the east wall (x = 4) and the floor in front of it, from 2.5 m, then a
+  // step to the side and forward, turned a little.
+  const Eigen::Isometry3d a = test::LookingAt({4.0, 0.0, 0.6}, 2.5, 0.0, 20.0);
+  const Eigen::Isometry3d b = test::LookingAt({4.0, 0.2, 0.6}, 2.2, -5.0, 22.0, 2.0);
+  RenderOptions render;
+  const RenderedFrame view_a = renderer.Render(camera, a, render);
+  const RenderedFrame view_b = renderer.Render(camera, b, render);
+  cv::Mat gray_a, gray_b;
+  cv::extractChannel(view_a.image, gray_a, 1);
+  cv::extractChannel(view_b.image, gray_b, 1);
+  const FeatureOptions features;
+  const std::vector<ShotPlane> planes =
+      FindPlanesBetweenShots(DetectKeypoints(gray_a, features), DetectKeypoints(gray_b, features),
+                             camera, PlaneOptions(), features);
+  const KeypointSet keys_b = DetectKeypoints(gray_b, features);
+  std::set<std::string> found;
+  for (const ShotPlane& plane : planes) {
+    std::map<int, int> votes;
+    for (const cv::DMatch& m : plane.matches) {
+      const cv::Point2f p = keys_b.keypoints[m.trainIdx].pt;
+      ++votes[view_b.labels.at<uint16_t>(cvRound(p.y), cvRound(p.x))];
+    }
+    const auto majority = std::max_element(votes.begin(), votes.end(), [](auto& x, auto& y) {
+      return x.second < y.second;
+    });
+    ASSERT_GT(majority->first, 0);
+    const Plane& truth = scene->planes[majority->first - 1];
+    found.insert(truth.name);
+    std::printf("%s: %zu matches, %d on it, %zu motions\n", truth.name.c_str(), plane.matches.size(), majority->second, plane.motions.size());
+    EXPECT_GE(majority->second, 0.95 * plane.matches.size()) << truth.name;
+    EXPECT_FALSE(plane.motions.empty());
+    if (plane.motions.size() == 1) {
+      const Eigen::Vector3d truth_normal = a.linear().transpose() * truth.normal();
+      EXPECT_LT(AngleDeg(plane.motions[0].normal_reference, truth_normal), 5.0) << truth.name;
+    }
+  }
+  EXPECT_TRUE(found.count("floor"));
+  EXPECT_TRUE(found.count("wall_east"));
+}
+
+}  // namespace
+}  // namespace autocal
