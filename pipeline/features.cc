@@ -38,12 +38,47 @@ bool FeatureOptions::Check(std::string* error) const {
 }
 
 int GridCell(const cv::Point2f& point, cv::Size size, const FeatureOptions& options) {
-  const int column = std::clamp(int(point.x * options.grid_columns / size.width), 0,
-                                options.grid_columns - 1);
+  const int column =
+      std::clamp(int(point.x * options.grid_columns / size.width), 0, options.grid_columns - 1);
   const int row =
       std::clamp(int(point.y * options.grid_rows / size.height), 0, options.grid_rows - 1);
   return row * options.grid_columns + column;
 }
+
+namespace {
+
+// FAST looks 3 pixels round a point and non-maximum suppression one more: a cell is
+// searched with this margin so that its corners are those of the whole image.
+constexpr int kFastMargin = 4;
+
+// Adds the strongest free FAST corners (at `threshold`) of one cell to `taken` until it
+// holds `room`, keeping them min_distance_px apart (marked off in `free`).
+void TakeCorners(const cv::Mat& gray, int cell, int threshold, int room,
+                 const FeatureOptions& options, cv::Mat* free, std::vector<cv::Point2f>* taken) {
+  const int column = cell % options.grid_columns, row = cell / options.grid_columns;
+  const cv::Rect area(
+      cv::Point(column * gray.cols / options.grid_columns, row * gray.rows / options.grid_rows),
+      cv::Point((column + 1) * gray.cols / options.grid_columns,
+                (row + 1) * gray.rows / options.grid_rows));
+  const cv::Rect search =
+      (area - cv::Point(kFastMargin, kFastMargin) + cv::Size(2 * kFastMargin, 2 * kFastMargin)) &
+      cv::Rect(cv::Point(0, 0), gray.size());
+  std::vector<cv::KeyPoint> corners;
+  cv::FAST(gray(search), corners, threshold, true);
+  std::sort(corners.begin(), corners.end(),
+            [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
+  const int spacing = static_cast<int>(std::ceil(options.min_distance_px));
+  for (const cv::KeyPoint& corner : corners) {
+    if (int(taken->size()) >= room) break;
+    const cv::Point2f point = corner.pt + cv::Point2f(search.tl());
+    const cv::Point pixel(cvRound(point.x), cvRound(point.y));
+    if (GridCell(point, gray.size(), options) != cell || !free->at<uint8_t>(pixel)) continue;
+    taken->push_back(point);
+    if (spacing > 0) cv::circle(*free, pixel, spacing, cv::Scalar(0), cv::FILLED);
+  }
+}
+
+}  // namespace
 
 std::vector<cv::Point2f> DetectCorners(const cv::Mat& gray, const FeatureOptions& options,
                                        const std::vector<cv::Point2f>& existing, int max_new) {
@@ -62,56 +97,30 @@ std::vector<cv::Point2f> DetectCorners(const cv::Mat& gray, const FeatureOptions
     if (spacing > 0) cv::circle(free, p, spacing, cv::Scalar(0), cv::FILLED);
   }
 
-  std::vector<cv::KeyPoint> corners;
-  cv::FastFeatureDetector::create(options.fast_threshold, true)->detect(gray, corners, free);
-  std::sort(corners.begin(), corners.end(),
-            [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
-
-  // Strongest first within each cell, keeping new corners apart.
-  std::vector<std::vector<cv::Point2f>> taken(cells);
-  int total = 0;
-  for (const cv::KeyPoint& corner : corners) {
-    const int cell = GridCell(corner.pt, gray.size(), options);
-    if (held[cell] + int(taken[cell].size()) >= options.max_per_cell) continue;
-    const cv::Point pixel(cvRound(corner.pt.x), cvRound(corner.pt.y));
-    if (!free.at<uint8_t>(pixel)) continue;
-    taken[cell].push_back(corner.pt);
-    ++total;
-    if (spacing > 0) cv::circle(free, pixel, spacing, cv::Scalar(0), cv::FILLED);
-  }
-
-  // Cells with nothing at all get a second look at a lower threshold: a weak corner
-  // there is worth more than a strong one where tracks are plenty.
-  if (options.min_fast_threshold < options.fast_threshold) {
-    const auto detector = cv::FastFeatureDetector::create(options.min_fast_threshold, true);
-    for (int cell = 0; cell < cells; ++cell) {
-      if (held[cell] > 0 || !taken[cell].empty()) continue;
-      const int column = cell % options.grid_columns, row = cell / options.grid_columns;
-      const cv::Rect area(cv::Point(column * gray.cols / options.grid_columns,
-                                    row * gray.rows / options.grid_rows),
-                          cv::Point((column + 1) * gray.cols / options.grid_columns,
-                                    (row + 1) * gray.rows / options.grid_rows));
-      std::vector<cv::KeyPoint> weak;
-      detector->detect(gray(area), weak, free(area));
-      std::sort(weak.begin(), weak.end(), [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
-        return a.response > b.response;
-      });
-      for (const cv::KeyPoint& corner : weak) {
-        if (int(taken[cell].size()) >= options.max_per_cell) break;
-        const cv::Point2f point = corner.pt + cv::Point2f(area.tl());
-        const cv::Point pixel(cvRound(point.x), cvRound(point.y));
-        if (GridCell(point, gray.size(), options) != cell || !free.at<uint8_t>(pixel)) continue;
-        taken[cell].push_back(point);
-        ++total;
-        if (spacing > 0) cv::circle(free, pixel, spacing, cv::Scalar(0), cv::FILLED);
-      }
-    }
-  }
-
-  // Cells take turns, the emptiest first, until max_new are chosen.
+  // The emptiest cells are searched first, and only as many as it takes: FAST over the
+  // whole image each frame would cost more than the tracking itself.
   std::vector<int> order(cells);
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return held[a] < held[b]; });
+  std::vector<std::vector<cv::Point2f>> taken(cells);
+  int total = 0;
+  int last_held = -1;
+  for (int cell : order) {
+    const int room = options.max_per_cell - held[cell];
+    // Enough found, and every cell as empty as the last one searched had its turn.
+    if (room <= 0 || (total >= max_new && held[cell] > last_held)) break;
+    TakeCorners(gray, cell, options.fast_threshold, room, options, &free, &taken[cell]);
+    // A cell with nothing at all looks again at a lower threshold: a weak corner there is
+    // worth more than a strong one where tracks are plenty.
+    if (taken[cell].empty() && held[cell] == 0 &&
+        options.min_fast_threshold < options.fast_threshold) {
+      TakeCorners(gray, cell, options.min_fast_threshold, room, options, &free, &taken[cell]);
+    }
+    total += static_cast<int>(taken[cell].size());
+    last_held = held[cell];
+  }
+
+  // Cells take turns, the emptiest first, until max_new are chosen.
   std::vector<cv::Point2f> chosen;
   chosen.reserve(std::min(total, max_new));
   for (int rank = 0; rank < options.max_per_cell && int(chosen.size()) < max_new; ++rank) {

@@ -27,8 +27,8 @@ struct FeatureOptions {
   // Keypoints for still shots: SIFT finds and places more of them on fine, low-contrast
   // texture (carpet, plaster) across a change of view.
   DescriptorType descriptor = DescriptorType::kSift;
-  int max_keypoints = 1500;      // Strongest scale-invariant keypoints kept per image.
-  double match_ratio = 0.8;      // Lowe's test: best match closer than this times the second.
+  int max_keypoints = 1500;  // Strongest scale-invariant keypoints kept per image.
+  double match_ratio = 0.8;  // Lowe's test: best match closer than this times the second.
 
   bool Check(std::string* error) const;
 };

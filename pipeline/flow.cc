@@ -46,9 +46,9 @@ const TrackPoint* Track::FramesAgo(int frames) const {
 }
 
 const TrackPoint* Track::At(int64_t t_ns) const {
-  const auto it = std::lower_bound(
-      history.begin(), history.end(), t_ns,
-      [](const TrackPoint& point, int64_t t) { return point.t_ns < t; });
+  const auto it =
+      std::lower_bound(history.begin(), history.end(), t_ns,
+                       [](const TrackPoint& point, int64_t t) { return point.t_ns < t; });
   return it != history.end() && it->t_ns == t_ns ? &*it : nullptr;
 }
 
@@ -58,8 +58,7 @@ void FlowTracker::set_options(const FlowOptions& options) { options_ = options; 
 
 void FlowTracker::ForwardBackward(const std::vector<cv::Mat>& pyramid,
                                   const std::vector<cv::Point2f>& start, int levels,
-                                  std::vector<cv::Point2f>* end,
-                                  std::vector<uchar>* found) const {
+                                  std::vector<cv::Point2f>* end, std::vector<uchar>* found) const {
   found->assign(start.size(), 0);
   if (start.empty()) return;
   const cv::Size window(options_.window_px, options_.window_px);
@@ -67,8 +66,8 @@ void FlowTracker::ForwardBackward(const std::vector<cv::Mat>& pyramid,
                                   options_.max_iterations, options_.epsilon_px);
   std::vector<uchar> status;
   std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(pyramid_, pyramid, start, *end, status, error, window, levels,
-                           criteria, cv::OPTFLOW_USE_INITIAL_FLOW, options_.min_eigen);
+  cv::calcOpticalFlowPyrLK(pyramid_, pyramid, start, *end, status, error, window, levels, criteria,
+                           cv::OPTFLOW_USE_INITIAL_FLOW, options_.min_eigen);
   // Back from where the forward search ended, without a hint: a track that drifted onto
   // something else (an occluder, a repeated pattern) does not find its way home.
   std::vector<cv::Point2f> back;
@@ -134,8 +133,7 @@ void FlowTracker::Advance(int64_t t_ns, const cv::Mat& gray) {
       Track& track = tracks_[i];
       track.history.push_back({t_ns, end[i]});
       if (int(track.history.size()) > options_.history_frames) {
-        track.history.erase(track.history.begin(),
-                            track.history.end() - options_.history_frames);
+        track.history.erase(track.history.begin(), track.history.end() - options_.history_frames);
       }
       ++track.age;
       kept.push_back(std::move(track));

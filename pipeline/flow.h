@@ -14,23 +14,24 @@
 namespace autocal {
 
 struct FlowOptions {
-  // Side of the Lucas-Kanade window (odd). Small windows drift less as the view of a
-  // patch changes (0.5 px in 10 frames at 15 px, 0.65 px at 21 px), large ones are surer.
-  int window_px = 15;
-  int pyramid_levels = 3;         // Levels above the full image; reach ~window * 2^levels.
-  int max_iterations = 20;        // Lucas-Kanade iterations per level.
-  double epsilon_px = 0.01;       // ...or until a step is shorter than this.
-  double min_eigen = 1e-4;        // Windows flatter than this (OpenCV's minEigThreshold) fail.
-  double max_fb_error_px = 0.5;   // Tracked back, a point must land this close to its start.
-  bool predict = true;            // Start each search at the point's previous velocity.
+  // Side of the Lucas-Kanade window (odd). A translation-only window drifts as the view
+  // of its patch changes (a zoom of 2% a frame: 0.18 px in 20 frames at 7 px, 0.45 px at
+  // 15 px), and a small one straddles fewer plane boundaries; a large one is surer.
+  int window_px = 11;
+  int pyramid_levels = 3;        // Levels above the full image; reach ~window * 2^levels.
+  int max_iterations = 20;       // Lucas-Kanade iterations per level.
+  double epsilon_px = 0.01;      // ...or until a step is shorter than this.
+  double min_eigen = 1e-4;       // Windows flatter than this (OpenCV's minEigThreshold) fail.
+  double max_fb_error_px = 0.5;  // Tracked back, a point must land this close to its start.
+  bool predict = true;           // Start each search at the point's previous velocity.
   // Tracks lost with the whole pyramid are searched again with this many levels from
   // where they were heading (-1: not): a region that changes, such as an occluder coming
   // in, spoils the coarse levels for every track far around it.
   int retry_levels = 1;
-  int border_px = 4;              // Tracks closer than this to the border are dropped.
-  int target_tracks = 300;        // New corners fill empty cells up to this many tracks.
-  int history_frames = 30;        // Positions kept per track (the window of frames).
-  FeatureOptions features;        // Where new tracks start (box 4).
+  int border_px = 4;        // Tracks closer than this to the border are dropped.
+  int target_tracks = 300;  // New corners fill empty cells up to this many tracks.
+  int history_frames = 30;  // Positions kept per track (the window of frames).
+  FeatureOptions features;  // Where new tracks start (box 4).
 
   // Checks this struct and the nested one; the message names the field.
   bool Check(std::string* error) const;
@@ -43,8 +44,8 @@ struct TrackPoint {
 };
 
 struct Track {
-  int id = 0;   // Unique over the tracker's life, never reused.
-  int age = 0;  // Frames tracked since it started (0 in its first frame).
+  int id = 0;                       // Unique over the tracker's life, never reused.
+  int age = 0;                      // Frames tracked since it started (0 in its first frame).
   std::vector<TrackPoint> history;  // Oldest first, the last is now; at most history_frames.
 
   const cv::Point2f& current() const { return history.back().pixel; }

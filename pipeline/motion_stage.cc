@@ -23,9 +23,11 @@ bool MotionStageOptions::Check(std::string* error) const {
     if (error) *error = "planes." + nested;
     return false;
   }
-  // Box 6 looks back baseline_frames into every track's history.
-  if (flow.history_frames <= planes.baseline_frames) {
-    if (error) *error = "flow.history_frames must exceed planes.baseline_frames";
+  // Box 6 looks back its baselines into every track's history.
+  if (flow.history_frames <= std::max(planes.baseline_frames, planes.long_baseline_frames)) {
+    if (error) {
+      *error = "flow.history_frames must exceed planes.baseline_frames and long_baseline_frames";
+    }
     return false;
   }
   return true;

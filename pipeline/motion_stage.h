@@ -37,17 +37,17 @@ struct InertialFindings {
 struct MotionSnapshot {
   int64_t t_ns = 0;
   cv::Size image_size;
-  CameraIntrinsics camera;           // The calibration the frame was processed with.
+  CameraIntrinsics camera;  // The calibration the frame was processed with.
   // Live tracks with their recent history; a track's flow vector runs from FramesAgo(1)
   // to current() (tracks started in this frame have none).
   std::vector<Track> tracks;
   std::vector<DominantPlane> planes;
-  int tracks_started = 0;            // New tracks in this frame (box 4).
-  int tracks_died = 0;               // Tracks lost in this frame (box 5).
-  double features_ms = 0.0;          // Box 4.
-  double flow_ms = 0.0;              // Box 5.
-  double planes_ms = 0.0;            // Box 6.
-  InertialFindings inertial;         // Box 7, filled by the caller.
+  int tracks_started = 0;     // New tracks in this frame (box 4).
+  int tracks_died = 0;        // Tracks lost in this frame (box 5).
+  double features_ms = 0.0;   // Box 4.
+  double flow_ms = 0.0;       // Box 5.
+  double planes_ms = 0.0;     // Box 6.
+  InertialFindings inertial;  // Box 7, filled by the caller.
 
   // The id of the plane holding a track, 0 for none.
   int PlaneOf(int track_id) const;

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -19,6 +18,8 @@ namespace {
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // RANSAC's confidence that no better model was missed.
 constexpr double kConfidence = 0.995;
+// Thresholds over the long baseline: drift grows about as the square root of time.
+const double kLongScale = std::sqrt(2.0);
 // Attempts at a new plane per frame whose inliers are too few or too crowded.
 constexpr int kDetectAttempts = 4;
 
@@ -53,7 +54,8 @@ double NarrowSpread(const std::vector<cv::Point2f>& points, cv::Size size) {
   if (points.size() < 3) return 0.0;
   cv::Mat samples(int(points.size()), 2, CV_32F, const_cast<cv::Point2f*>(points.data()));
   cv::Mat covariance, mean;
-  cv::calcCovarMatrix(samples, covariance, mean, cv::COVAR_NORMAL | cv::COVAR_ROWS | cv::COVAR_SCALE);
+  cv::calcCovarMatrix(samples, covariance, mean,
+                      cv::COVAR_NORMAL | cv::COVAR_ROWS | cv::COVAR_SCALE);
   cv::Mat eigenvalues;
   cv::eigen(covariance, eigenvalues);
   return std::sqrt(std::max(0.0, eigenvalues.at<double>(1))) / std::hypot(size.width, size.height);
@@ -70,8 +72,7 @@ cv::Matx33d CameraMatrix(const CameraIntrinsics& camera) {
 
 // Robust homography from `from` to `to`; inliers flagged in `mask`. Empty on failure.
 cv::Matx33d FitHomography(const std::vector<cv::Point2f>& from, const std::vector<cv::Point2f>& to,
-                          double threshold_px, int iterations, std::vector<uchar>* mask,
-                          bool* ok) {
+                          double threshold_px, int iterations, std::vector<uchar>* mask, bool* ok) {
   *ok = false;
   if (from.size() < 4) return cv::Matx33d::eye();
   const cv::Mat h =
@@ -81,14 +82,15 @@ cv::Matx33d FitHomography(const std::vector<cv::Point2f>& from, const std::vecto
   return cv::Matx33d(h);
 }
 
-// The smallest translation over distance among the decompositions: under pure rotation
-// every decomposition has none.
-double Parallax(const std::vector<PlaneMotion>& motions) {
+// The flow (pixels) that the translation alone causes at the centre of the plane's
+// reference view, the smallest among the decompositions: under pure rotation every
+// decomposition has none.
+double Parallax(const std::vector<PlaneMotion>& motions, const CameraIntrinsics& camera) {
   double parallax = kInfinity;
   for (const PlaneMotion& m : motions) {
     parallax = std::min(parallax, m.translation_over_distance.norm());
   }
-  return motions.empty() ? 0.0 : parallax;
+  return motions.empty() ? 0.0 : parallax * std::sqrt(camera.fx * camera.fy);
 }
 
 }  // namespace
@@ -97,6 +99,8 @@ bool PlaneOptions::Check(std::string* error) const {
   std::ostringstream why;
   if (baseline_frames < 1) {
     why << "baseline_frames must be at least 1";
+  } else if (long_baseline_frames != 0 && long_baseline_frames <= baseline_frames) {
+    why << "long_baseline_frames must be 0 or exceed baseline_frames";
   } else if (!(inlier_threshold_px > 0)) {
     why << "inlier_threshold_px must be positive";
   } else if (!(eject_threshold_px >= inlier_threshold_px)) {
@@ -111,8 +115,10 @@ bool PlaneOptions::Check(std::string* error) const {
     why << "min_area_fraction must be in [0, 1)";
   } else if (min_tracks_to_keep < 4 || min_tracks_to_keep > min_inliers) {
     why << "min_tracks_to_keep must be in [4, min_inliers]";
-  } else if (!(min_parallax >= 0)) {
-    why << "min_parallax must not be negative";
+  } else if (!(min_parallax_px >= 0)) {
+    why << "min_parallax_px must not be negative";
+  } else if (!(noise_scale >= 0)) {
+    why << "noise_scale must not be negative";
   } else if (!(min_spread >= 0)) {
     why << "min_spread must not be negative";
   } else if (max_planes < 1) {
@@ -185,9 +191,13 @@ struct PlaneTracker::Frame {
   const std::vector<Track>* tracks = nullptr;
   const CameraIntrinsics* camera = nullptr;
   std::unordered_map<int, int> index;  // Track id -> index in *tracks.
-  std::vector<cv::Point2f> now;        // Per track: undistorted position now...
-  std::vector<cv::Point2f> base;       // ...and in the baseline frame,
-  std::vector<bool> has_base;          // if it was tracked then.
+  std::vector<cv::Point2f> now;        // Per track: undistorted position now,
+  std::vector<cv::Point2f> base;       // in the baseline frame,
+  std::vector<bool> has_base;          // if it was tracked then,
+  std::vector<cv::Point2f> far;        // in the frame long_baseline_frames ago,
+  std::vector<bool> has_far;           // if it was tracked then, and how many undistorted
+  std::vector<float> magnification;    // pixels a pixel of the image tracked spans now.
+  int64_t far_t_ns = -1;               // The long baseline's frame, if there is one.
 
   cv::Size size() const { return {camera->width, camera->height}; }
   // Indices of the tracks of `members` that are tracked since the baseline frame.
@@ -199,8 +209,16 @@ struct PlaneTracker::Frame {
     }
     return based;
   }
+  // Errors are judged in pixels of the image tracked, where Lucas-Kanade made them.
+  // Transfer errors in pixels of the image tracked, over the baseline...
   double RecentError(const cv::Matx33d& recent, int track) const {
-    return Distance(Transfer(recent, base[track]), now[track]);
+    return Distance(Transfer(recent, base[track]), now[track]) / magnification[track];
+  }
+  // ...and over the long baseline, when both the plane and the track reach back that far.
+  double LongError(const std::optional<cv::Matx33d>& longer, int track) const {
+    return longer && has_far[track]
+               ? Distance(Transfer(*longer, far[track]), now[track]) / magnification[track]
+               : 0.0;
   }
 };
 
@@ -218,20 +236,49 @@ bool PlaneTracker::FollowRecent(State* state, const Frame& frame) const {
     return it == frame.index.end() || !frame.has_base[it->second];
   });
   if (int(state->members.size()) < options_.min_tracks_to_keep) return false;
+  const std::vector<int> based = frame.Based(state->members);
   std::vector<cv::Point2f> base, now;
-  for (int i : frame.Based(state->members)) {
+  for (int i : based) {
     base.push_back(frame.base[i]);
     now.push_back(frame.now[i]);
   }
   std::vector<uchar> mask;
   bool ok = false;
-  state->recent = FitHomography(base, now, options_.eject_threshold_px,
+  state->recent = FitHomography(base, now, state->scale * options_.eject_threshold_px,
                                 options_.ransac_iterations, &mask, &ok);
-  return ok;
+  if (!ok) return false;
+  std::vector<double> errors;
+  for (size_t k = 0; k < based.size(); ++k) {
+    if (mask[k]) errors.push_back(frame.RecentError(state->recent, based[k]));
+  }
+  state->scale = Scale(errors);
+  state->longer.reset();
+  std::vector<cv::Point2f> far, far_now;
+  for (int i : frame.Based(state->members)) {
+    if (!frame.has_far[i]) continue;
+    far.push_back(frame.far[i]);
+    far_now.push_back(frame.now[i]);
+  }
+  if (int(far.size()) >= options_.min_tracks_to_keep) {
+    bool long_ok = false;
+    const cv::Matx33d longer =
+        FitHomography(far, far_now, kLongScale * state->scale * options_.eject_threshold_px,
+                      options_.ransac_iterations, &mask, &long_ok);
+    if (long_ok) state->longer = longer;
+  }
+  return true;
+}
+
+double PlaneTracker::Scale(std::vector<double> errors) const {
+  if (errors.empty()) return 1.0;
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  return std::max(1.0,
+                  options_.noise_scale * errors[errors.size() / 2] / options_.inlier_threshold_px);
 }
 
 bool PlaneTracker::Near(const State& state, const Frame& frame, int track) const {
-  const double radius = options_.join_radius * std::hypot(frame.camera->width, frame.camera->height);
+  const double radius =
+      options_.join_radius * std::hypot(frame.camera->width, frame.camera->height);
   const cv::Point2f& p = frame.now[track];
   return std::any_of(state.members.begin(), state.members.end(), [&](const auto& member) {
     return Distance(frame.now[frame.index.at(member.first)], p) <= radius;
@@ -250,7 +297,7 @@ std::vector<std::vector<int>> PlaneTracker::Assign(const Frame& frame) {
     int chosen = -1;
     double own = kInfinity;
     for (size_t s = 0; s < states_.size(); ++s) {
-      const double error = frame.RecentError(states_[s].recent, int(i));
+      const double error = frame.RecentError(states_[s].recent, int(i)) / states_[s].scale;
       if (int(s) == owner[i]) own = error;
       if (error < best) {
         second = best;
@@ -265,11 +312,15 @@ std::vector<std::vector<int>> PlaneTracker::Assign(const Frame& frame) {
     if (owner[i] >= 0) {
       const bool other_fits = chosen != owner[i] ? best <= options_.inlier_threshold_px
                                                  : second <= options_.inlier_threshold_px;
-      if (own > options_.eject_threshold_px || other_fits) {
+      if (own > options_.eject_threshold_px || other_fits ||
+          frame.LongError(states_[owner[i]].longer, int(i)) / states_[owner[i]].scale >
+              kLongScale * options_.eject_threshold_px) {
         states_[owner[i]].members.erase((*frame.tracks)[i].id);
       }
     } else if (chosen >= 0 && best <= options_.inlier_threshold_px &&
-               second > options_.eject_threshold_px && Near(states_[chosen], frame, int(i))) {
+               second > options_.eject_threshold_px && Near(states_[chosen], frame, int(i)) &&
+               frame.LongError(states_[chosen].longer, int(i)) / states_[chosen].scale <=
+                   kLongScale * options_.inlier_threshold_px) {
       joiners[chosen].push_back(int(i));
     }
   }
@@ -287,7 +338,7 @@ bool PlaneTracker::FollowReference(State* state, const Frame& frame,
   }
   std::vector<uchar> mask;
   bool ok = false;
-  const cv::Matx33d h = FitHomography(reference, now, options_.eject_threshold_px,
+  const cv::Matx33d h = FitHomography(reference, now, state->scale * options_.eject_threshold_px,
                                       options_.ransac_iterations, &mask, &ok);
   if (!ok) return false;
   // Members that drifted from their reference point (tracks drift as the view of their
@@ -306,7 +357,7 @@ bool PlaneTracker::FollowReference(State* state, const Frame& frame,
 void PlaneTracker::Merge(const Frame& frame) {
   auto fitting = [&](const State& model, const std::vector<int>& tracks) {
     return std::count_if(tracks.begin(), tracks.end(), [&](int i) {
-      return frame.RecentError(model.recent, i) <= options_.eject_threshold_px;
+      return frame.RecentError(model.recent, i) <= model.scale * options_.eject_threshold_px;
     });
   };
   for (size_t a = 0; a < states_.size(); ++a) {
@@ -326,9 +377,11 @@ void PlaneTracker::Merge(const Frame& frame) {
         }
         std::vector<uchar> mask;
         bool ok = false;
-        FitHomography(base, now, options_.eject_threshold_px, options_.ransac_iterations, &mask,
-                      &ok);
-        merge = ok && std::count(mask.begin(), mask.end(), 1) >= options_.merge_fraction * mask.size();
+        FitHomography(base, now,
+                      std::max(states_[a].scale, states_[b].scale) * options_.eject_threshold_px,
+                      options_.ransac_iterations, &mask, &ok);
+        merge =
+            ok && std::count(mask.begin(), mask.end(), 1) >= options_.merge_fraction * mask.size();
       }
       if (!merge) {
         ++b;
@@ -355,7 +408,8 @@ void PlaneTracker::Detect(const Frame& frame) {
   for (size_t i = 0; i < frame.tracks->size(); ++i) {
     if (owned[i] || !frame.has_base[i]) continue;
     if (std::none_of(states_.begin(), states_.end(), [&](const State& state) {
-          return frame.RecentError(state.recent, int(i)) <= options_.eject_threshold_px;
+          return frame.RecentError(state.recent, int(i)) <=
+                 state.scale * options_.eject_threshold_px;
         })) {
       pool.push_back(int(i));
     }
@@ -379,10 +433,15 @@ void PlaneTracker::Detect(const Frame& frame) {
     for (size_t k = 0; k < pool.size(); ++k) {
       if (!mask[k]) rest.push_back(pool[k]);
     }
+    std::vector<double> errors;
+    for (size_t k = 0; k < pool.size(); ++k) {
+      if (mask[k]) errors.push_back(frame.RecentError(h, pool[k]));
+    }
+    const double scale = Scale(errors);
     auto core = [&] {
       std::vector<size_t> in;
       for (size_t k = 0; k < pool.size(); ++k) {
-        if (mask[k] && Distance(Transfer(h, base[k]), now[k]) <= options_.inlier_threshold_px) {
+        if (mask[k] && frame.RecentError(h, pool[k]) <= scale * options_.inlier_threshold_px) {
           in.push_back(k);
         }
       }
@@ -401,6 +460,29 @@ void PlaneTracker::Detect(const Frame& frame) {
         in = core();
       }
     }
+    // Over the long baseline a mixture of planes too close in depth to part over the
+    // short one comes apart: the core keeps the long fit's tracks.
+    std::vector<size_t> far_in;
+    std::vector<cv::Point2f> far_from, far_to;
+    for (size_t k : in) {
+      if (!frame.has_far[pool[k]]) continue;
+      far_in.push_back(k);
+      far_from.push_back(frame.far[pool[k]]);
+      far_to.push_back(now[k]);
+    }
+    if (int(far_in.size()) >= options_.min_tracks_to_keep) {
+      std::vector<uchar> far_mask;
+      bool far_ok = false;
+      const cv::Matx33d longer =
+          FitHomography(far_from, far_to, kLongScale * scale * options_.eject_threshold_px,
+                        options_.ransac_iterations, &far_mask, &far_ok);
+      if (far_ok) {
+        std::erase_if(in, [&](size_t k) {
+          return frame.LongError(longer, pool[k]) >
+                 kLongScale * scale * options_.inlier_threshold_px;
+        });
+      }
+    }
     std::vector<int> inliers;
     std::vector<cv::Point2f> inlier_base, inlier_now, inlier_pixels;
     for (size_t k : in) {
@@ -411,8 +493,8 @@ void PlaneTracker::Detect(const Frame& frame) {
     }
     if (int(inliers.size()) < options_.min_inliers) return;
     // Without parallax every plane fits the homography of the rotation: nothing to find.
-    if (Parallax(DecomposePlaneHomography(h, *frame.camera, inlier_base, inlier_now)) <
-        options_.min_parallax) {
+    if (Parallax(DecomposePlaneHomography(h, *frame.camera, inlier_base, inlier_now),
+                 *frame.camera) < options_.min_parallax_px) {
       return;
     }
     pool = std::move(rest);
@@ -422,6 +504,7 @@ void PlaneTracker::Detect(const Frame& frame) {
     state.id = next_id_++;
     state.reference_t_ns = frame.base_t_ns;
     state.homography = state.recent = h;
+    state.scale = scale;
     for (size_t k = 0; k < inliers.size(); ++k) {
       state.members.emplace((*frame.tracks)[inliers[k]].id, inlier_base[k]);
     }
@@ -456,7 +539,8 @@ void PlaneTracker::Reanchor(State* state, const Frame& frame) const {
       after.push_back(Transfer(old_to_new, point));
     }
     double best = kInfinity;
-    for (const PlaneMotion& m : DecomposePlaneHomography(old_to_new, *frame.camera, before, after)) {
+    for (const PlaneMotion& m :
+         DecomposePlaneHomography(old_to_new, *frame.camera, before, after)) {
       const double angle = AngleDeg(m.normal_reference, *state->normal_reference);
       if (angle < best) {
         best = angle;
@@ -492,7 +576,7 @@ void PlaneTracker::Orient(State* state, const Frame& frame) const {
       DecomposePlaneHomography(state->homography, *frame.camera, reference, current);
   state->motion.reset();
   if (candidates.empty() || NarrowSpread(current, frame.size()) < options_.min_spread) return;
-  if (Parallax(candidates) >= options_.min_parallax) {
+  if (Parallax(candidates, *frame.camera) >= options_.min_parallax_px) {
     std::vector<Eigen::Vector3d> normals;
     for (const PlaneMotion& m : candidates) normals.push_back(m.normal_reference);
     state->votes.push_back(std::move(normals));
@@ -555,7 +639,10 @@ DominantPlane PlaneTracker::Describe(const State& state, const Frame& frame) con
 void PlaneTracker::Update(int64_t t_ns, const std::vector<Track>& tracks,
                           const CameraIntrinsics& camera) {
   frame_times_.push_back(t_ns);
-  while (int(frame_times_.size()) > options_.max_reference_frames + options_.baseline_frames + 2) {
+  while (int(frame_times_.size()) >
+         std::max(options_.max_reference_frames + options_.baseline_frames,
+                  options_.long_baseline_frames) +
+             2) {
     frame_times_.pop_front();
   }
 
@@ -592,8 +679,29 @@ void PlaneTracker::Update(int64_t t_ns, const std::vector<Track>& tracks,
   frame.tracks = &tracks;
   frame.camera = &camera;
   frame.now.resize(tracks.size());
+  frame.magnification.assign(tracks.size(), 1.0f);
+  if (Distorted(camera)) {
+    // The undistorted images of a pixel's right and lower neighbours.
+    std::vector<cv::Point2f> steps;
+    for (const Track& track : tracks) {
+      steps.push_back(track.current() + cv::Point2f(1.f, 0.f));
+      steps.push_back(track.current() + cv::Point2f(0.f, 1.f));
+    }
+    steps = UndistortPixels(steps, camera);
+    for (size_t i = 0; i < tracks.size(); ++i) {
+      const cv::Point2f& p = ideal_.at(tracks[i].id).back();
+      const cv::Point2f dx = steps[2 * i] - p, dy = steps[2 * i + 1] - p;
+      frame.magnification[i] = std::sqrt(std::abs(dx.x * dy.y - dx.y * dy.x));
+    }
+  }
   frame.base.resize(tracks.size());
   frame.has_base.resize(tracks.size());
+  if (options_.long_baseline_frames > 0 &&
+      int(frame_times_.size()) > options_.long_baseline_frames) {
+    frame.far_t_ns = frame_times_[frame_times_.size() - 1 - options_.long_baseline_frames];
+  }
+  frame.far.resize(tracks.size());
+  frame.has_far.resize(tracks.size());
   for (size_t i = 0; i < tracks.size(); ++i) {
     const std::vector<cv::Point2f>& points = ideal_.at(tracks[i].id);
     frame.index.emplace(tracks[i].id, int(i));
@@ -601,6 +709,9 @@ void PlaneTracker::Update(int64_t t_ns, const std::vector<Track>& tracks,
     const TrackPoint* at_base = tracks[i].At(frame.base_t_ns);
     frame.has_base[i] = at_base != nullptr;
     if (at_base) frame.base[i] = points[at_base - tracks[i].history.data()];
+    const TrackPoint* at_far = frame.far_t_ns >= 0 ? tracks[i].At(frame.far_t_ns) : nullptr;
+    frame.has_far[i] = at_far != nullptr;
+    if (at_far) frame.far[i] = points[at_far - tracks[i].history.data()];
   }
 
   std::erase_if(states_, [&](State& state) { return !FollowRecent(&state, frame); });
@@ -614,8 +725,8 @@ void PlaneTracker::Update(int64_t t_ns, const std::vector<Track>& tracks,
   }
   states_ = std::move(followed);
   for (State& state : states_) {
-    const auto reference = std::lower_bound(frame_times_.begin(), frame_times_.end(),
-                                            state.reference_t_ns);
+    const auto reference =
+        std::lower_bound(frame_times_.begin(), frame_times_.end(), state.reference_t_ns);
     if (frame_times_.end() - reference > options_.max_reference_frames) Reanchor(&state, frame);
   }
   Merge(frame);
@@ -652,15 +763,15 @@ std::vector<ShotPlane> FindPlanesBetweenShots(const KeypointSet& a, const Keypoi
   std::vector<Found> found;
   std::vector<int> pool(matches.size());
   std::iota(pool.begin(), pool.end(), 0);
-  for (int attempt = 0; attempt < kDetectAttempts + options.max_planes &&
-                        int(found.size()) < options.max_planes &&
-                        int(pool.size()) >= options.min_inliers;
+  for (int attempt = 0;
+       attempt < kDetectAttempts + options.max_planes && int(found.size()) < options.max_planes &&
+       int(pool.size()) >= options.min_inliers;
        ++attempt) {
     std::vector<uchar> mask;
     bool ok = false;
-    const cv::Matx33d h = FitHomography(pick(ideal_a, pool), pick(ideal_b, pool),
-                                        options.shot_inlier_threshold_px,
-                                        options.ransac_iterations, &mask, &ok);
+    const cv::Matx33d h =
+        FitHomography(pick(ideal_a, pool), pick(ideal_b, pool), options.shot_inlier_threshold_px,
+                      options.ransac_iterations, &mask, &ok);
     if (!ok) break;
     Found plane{h, {}};
     std::vector<int> rest;
@@ -686,8 +797,8 @@ std::vector<ShotPlane> FindPlanesBetweenShots(const KeypointSet& a, const Keypoi
       }
       found[i].inliers.insert(found[i].inliers.end(), found[j].inliers.begin(),
                               found[j].inliers.end());
-      const cv::Mat refit = cv::findHomography(pick(ideal_a, found[i].inliers),
-                                               pick(ideal_b, found[i].inliers), 0);
+      const cv::Mat refit =
+          cv::findHomography(pick(ideal_a, found[i].inliers), pick(ideal_b, found[i].inliers), 0);
       if (!refit.empty()) found[i].homography = cv::Matx33d(refit);
       found.erase(found.begin() + j);
     }
@@ -724,8 +835,8 @@ std::vector<ShotPlane> FindPlanesBetweenShots(const KeypointSet& a, const Keypoi
       }
       disagreement.push_back(total);
     }
-    const size_t best = std::min_element(disagreement.begin(), disagreement.end()) -
-                        disagreement.begin();
+    const size_t best =
+        std::min_element(disagreement.begin(), disagreement.end()) - disagreement.begin();
     const double next = [&] {
       double n = kInfinity;
       for (size_t c = 0; c < disagreement.size(); ++c) {

@@ -26,28 +26,38 @@ struct PlaneOptions {
   // for parallax to set planes apart, short enough that tracks do not drift (Lucas-Kanade
   // drifts about 0.5 px in 10 frames as the view of a patch changes).
   int baseline_frames = 10;
-  double inlier_threshold_px = 0.6;   // Transfer error over the baseline to join a plane.
-  double eject_threshold_px = 1.5;    // A member whose error exceeds this leaves its plane.
+  // Tracks old enough are judged over this longer baseline too (0: not), with thresholds
+  // larger by the square root of 2 (drift grows about as the square root of time): planes
+  // twice as close in depth come apart there.
+  int long_baseline_frames = 20;
+  double inlier_threshold_px = 0.6;  // Transfer error over the baseline to join a plane.
+  double eject_threshold_px = 1.5;   // A member whose error exceeds this leaves its plane.
+  // A plane whose tracks are noisier (a wall close by at a grazing angle, where patches
+  // deform fast) has both thresholds scaled up by this times the median error of its
+  // tracks over inlier_threshold_px, when that exceeds 1 (0: never).
+  double noise_scale = 1.5;
   // Planes are connected regions: a track joins one only this close to one of its tracks
   // (a fraction of the image diagonal); farther points that fit are more likely on
   // another plane that parallax does not yet set apart.
-  double join_radius = 0.1;
-  int ransac_iterations = 500;        // Most RANSAC samples per fit.
-  int min_inliers = 20;               // Tracks a new plane needs...
-  double min_area_fraction = 0.02;    // ...and the image fraction their convex hull covers.
-  int min_tracks_to_keep = 8;         // A plane left with fewer live tracks is lost.
-  // Translation over the plane's distance that the camera must have moved over the
-  // baseline for a new plane: under less parallax other planes fit its homography too.
-  double min_parallax = 0.08;
-  int max_planes = 8;                 // Planes followed at once.
-  int max_reference_frames = 60;      // The reference frame moves up after this many frames.
-  double merge_fraction = 0.8;        // Two planes one homography fits this well are one.
+  double join_radius = 0.07;
+  int ransac_iterations = 500;      // Most RANSAC samples per fit.
+  int min_inliers = 20;             // Tracks a new plane needs...
+  double min_area_fraction = 0.02;  // ...and the image fraction their convex hull covers.
+  int min_tracks_to_keep = 8;       // A plane left with fewer live tracks is lost.
+  // The camera must have moved over the baseline for a new plane (and for a vote on its
+  // orientation) so that the translation alone moves the plane's image by this many
+  // pixels (translation over the plane's distance, times the focal length): under less
+  // parallax other planes fit its homography too.
+  double min_parallax_px = 16.0;
+  int max_planes = 8;             // Planes followed at once.
+  int max_reference_frames = 60;  // The reference frame moves up after this many frames.
+  double merge_fraction = 0.8;    // Two planes one homography fits this well are one.
   // A plane's orientation is decomposed only while its tracks spread this much across
   // their narrowest direction (standard deviation over the image diagonal): a thin strip
   // leaves the homography undetermined across it.
   double min_spread = 0.03;
-  int normal_votes = 30;              // Frames of decomposition candidates voted over.
-  double normal_agreement_deg = 5.0;  // Candidates this close vote for each other.
+  int normal_votes = 30;                  // Frames of decomposition candidates voted over.
+  double normal_agreement_deg = 5.0;      // Candidates this close vote for each other.
   double shot_inlier_threshold_px = 3.0;  // Still shots: transfer error of matched keypoints.
 
   bool Check(std::string* error) const;
@@ -59,7 +69,7 @@ struct PlaneMotion {
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // Current from reference camera.
   Eigen::Vector3d translation_over_distance = Eigen::Vector3d::Zero();  // Over the reference
                                                                         // camera's distance.
-  Eigen::Vector3d normal_reference = Eigen::Vector3d::UnitZ();  // Unit, toward the camera.
+  Eigen::Vector3d normal_reference = Eigen::Vector3d::UnitZ();          // Unit, toward the camera.
 };
 
 // The physically valid decompositions (points in front of both cameras) of a homography
@@ -77,17 +87,17 @@ std::vector<cv::Point2f> UndistortPixels(const std::vector<cv::Point2f>& points,
 // One plane as seen now. Its homography maps the reference frame's undistorted pixels to
 // the current frame's.
 struct DominantPlane {
-  int id = 0;                      // Stable while the plane is followed; never reused.
-  int age = 0;                     // Frames since it was found.
-  int64_t reference_t_ns = 0;      // The frame its homography starts from.
-  std::vector<int> track_ids;      // Its live member tracks, ascending.
+  int id = 0;                       // Stable while the plane is followed; never reused.
+  int age = 0;                      // Frames since it was found.
+  int64_t reference_t_ns = 0;       // The frame its homography starts from.
+  std::vector<int> track_ids;       // Its live member tracks, ascending.
   std::vector<cv::Point2f> points;  // Their positions now, in the image tracked.
   // Their undistorted positions in the reference frame: measured there, or carried back
   // by the homography for tracks that started later (plane coordinates up to a
   // homography, for the virtual board).
   std::vector<cv::Point2f> reference_points;
-  std::vector<cv::Point2f> outline;  // Convex hull of `points`.
-  double area_fraction = 0.0;        // Area of the outline over the image's.
+  std::vector<cv::Point2f> outline;             // Convex hull of `points`.
+  double area_fraction = 0.0;                   // Area of the outline over the image's.
   cv::Matx33d homography = cv::Matx33d::eye();  // Reference -> now, undistorted pixels.
   // The decomposition chosen by the votes, once the camera has moved enough.
   std::optional<PlaneMotion> motion;
@@ -118,6 +128,8 @@ class PlaneTracker {
     int64_t reference_t_ns = 0;
     cv::Matx33d homography = cv::Matx33d::eye();  // Reference -> now.
     cv::Matx33d recent = cv::Matx33d::eye();      // Baseline frame -> now.
+    std::optional<cv::Matx33d> longer;            // Long baseline frame -> now.
+    double scale = 1.0;                           // On the thresholds, for its noise.
     std::map<int, cv::Point2f> members;           // Track id -> reference point.
     // Reference -> frame for every frame since the reference, oldest first, now last.
     std::deque<std::pair<int64_t, cv::Matx33d>> chain;
@@ -136,6 +148,8 @@ class PlaneTracker {
   // as its joiners.
   std::vector<std::vector<int>> Assign(const Frame& frame);
   bool Near(const State& state, const Frame& frame, int track) const;
+  // The factor on the thresholds for a plane whose tracks fit with these errors.
+  double Scale(std::vector<double> errors) const;
   bool FollowReference(State* state, const Frame& frame, const std::vector<int>& joiners) const;
   void Merge(const Frame& frame);
   void Detect(const Frame& frame);

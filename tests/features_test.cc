@@ -71,7 +71,7 @@ TEST(DetectCorners, EveryCellGetsCornersAndNoneMoreThanItsShare) {
 TEST(DetectCorners, StrongestFirstInEachCell) {
   const cv::Mat gray = OfficeFrame();
   FeatureOptions options;
-  options.min_distance_px = 0.0;  // Strength alone decides...
+  options.min_distance_px = 0.0;                        // Strength alone decides...
   options.min_fast_threshold = options.fast_threshold;  // ...at one threshold.
   options.max_per_cell = 3;
   const std::vector<cv::Point2f> corners = DetectCorners(gray, options);
@@ -88,7 +88,8 @@ TEST(DetectCorners, StrongestFirstInEachCell) {
   }
   std::map<int, std::vector<float>> chosen;
   for (const cv::Point2f& p : corners) {
-    const auto k = std::find_if(all.begin(), all.end(), [&](const cv::KeyPoint& c) { return c.pt == p; });
+    const auto k =
+        std::find_if(all.begin(), all.end(), [&](const cv::KeyPoint& c) { return c.pt == p; });
     ASSERT_NE(k, all.end());
     chosen[GridCell(p, gray.size(), options)].push_back(k->response);
   }
@@ -111,9 +112,8 @@ TEST(DetectCorners, AFaintCellIsSearchedAgainAtALowerThreshold) {
   area.convertTo(area, CV_8U, 0.08, 0.92 * cv::mean(area)[0]);
   auto count_in_cell = [&](const FeatureOptions& o) {
     const std::vector<cv::Point2f> corners = DetectCorners(gray, o);
-    return std::count_if(corners.begin(), corners.end(), [&](const cv::Point2f& p) {
-      return GridCell(p, gray.size(), o) == 9;
-    });
+    return std::count_if(corners.begin(), corners.end(),
+                         [&](const cv::Point2f& p) { return GridCell(p, gray.size(), o) == 9; });
   };
   EXPECT_GT(count_in_cell(options), 0);
   options.min_fast_threshold = options.fast_threshold;
@@ -180,7 +180,9 @@ void ExpectMatchesFollowTheWarp(DescriptorType type) {
   EXPECT_GT(right, 0.9 * matches.size()) << right << " of " << matches.size();
 }
 
-TEST(Keypoints, OrbMatchesFollowARotationAndScale) { ExpectMatchesFollowTheWarp(DescriptorType::kOrb); }
+TEST(Keypoints, OrbMatchesFollowARotationAndScale) {
+  ExpectMatchesFollowTheWarp(DescriptorType::kOrb);
+}
 
 TEST(Keypoints, SiftMatchesFollowARotationAndScale) {
   ExpectMatchesFollowTheWarp(DescriptorType::kSift);

@@ -116,14 +116,16 @@ std::vector<double> FollowWarps(double angle_deg, cv::Point2d shift, int frames)
   }
   std::vector<double> errors;
   for (const Track& t : tracker.tracks()) {
-    if (start.count(t.id)) errors.push_back(cv::norm(t.current() - Apply(warps.back(), start[t.id])));
+    if (start.count(t.id))
+      errors.push_back(cv::norm(t.current() - Apply(warps.back(), start[t.id])));
   }
   EXPECT_GT(errors.size(), 0.8 * options.target_tracks) << "tracks from frame 0 still alive";
   std::sort(errors.begin(), errors.end());
-  std::printf("after %d frames (%.2f deg, %.2f, %.2f px a frame): median %.3f px, 95%% %.3f px, "
-              "worst %.3f px\n",
-              frames, angle_deg, shift.x, shift.y, errors[errors.size() / 2],
-              errors[errors.size() * 95 / 100], errors.back());
+  std::printf(
+      "after %d frames (%.2f deg, %.2f, %.2f px a frame): median %.3f px, 95%% %.3f px, "
+      "worst %.3f px\n",
+      frames, angle_deg, shift.x, shift.y, errors[errors.size() / 2],
+      errors[errors.size() * 95 / 100], errors.back());
   return errors;
 }
 

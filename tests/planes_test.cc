@@ -45,7 +45,7 @@ TEST(PlaneOptions, DefaultsAreValidAndFaultsAreNamed) {
   fails_on([](PlaneOptions* o) { o->min_inliers = 3; }, "min_inliers");
   fails_on([](PlaneOptions* o) { o->min_area_fraction = 1; }, "min_area_fraction");
   fails_on([](PlaneOptions* o) { o->min_tracks_to_keep = 30; }, "min_tracks_to_keep");
-  fails_on([](PlaneOptions* o) { o->min_parallax = -1; }, "min_parallax");
+  fails_on([](PlaneOptions* o) { o->min_parallax_px = -1; }, "min_parallax_px");
   fails_on([](PlaneOptions* o) { o->min_spread = -1; }, "min_spread");
   fails_on([](PlaneOptions* o) { o->max_planes = 0; }, "max_planes");
   fails_on([](PlaneOptions* o) { o->max_reference_frames = 5; }, "max_reference_frames");
@@ -72,7 +72,8 @@ TEST(UndistortPixels, AgreesWithTheCameraModelOnAStrongBarrel) {
   for (size_t i = 0; i < pixels.size(); ++i) {
     const auto ray = Unproject(camera, {pixels[i].x, pixels[i].y});
     ASSERT_TRUE(ray.has_value());
-    const Eigen::Vector2d expected(camera.fx * ray->x() + camera.cx, camera.fy * ray->y() + camera.cy);
+    const Eigen::Vector2d expected(camera.fx * ray->x() + camera.cx,
+                                   camera.fy * ray->y() + camera.cy);
     worst = std::max(worst, (expected - Eigen::Vector2d(ideal[i].x, ideal[i].y)).norm());
   }
   EXPECT_LT(worst, 1e-3) << "px";
@@ -150,15 +151,16 @@ class SyntheticWalk {
       const Eigen::Vector2d pixel = Pixel(camera_, p);
       const bool visible = p.z() > 0.1 && pixel.x() > 5 && pixel.y() > 5 &&
                            pixel.x() < camera_.width - 5 && pixel.y() < camera_.height - 5;
-      auto it = std::find_if(tracks_.begin(), tracks_.end(), [&](const Track& tr) { return tr.id == int(i) + 1; });
+      auto it = std::find_if(tracks_.begin(), tracks_.end(),
+                             [&](const Track& tr) { return tr.id == int(i) + 1; });
       if (!visible || (it == tracks_.end() && ended_.count(int(i) + 1))) {
         if (it != tracks_.end()) ended_.insert(it->id);
         continue;
       }
       Track track = it == tracks_.end() ? Track{int(i) + 1, -1, {}} : *it;
       ++track.age;
-      track.history.push_back({Time(k), cv::Point2f(float(pixel.x() + noise(rng_)),
-                                                      float(pixel.y() + noise(rng_)))});
+      track.history.push_back(
+          {Time(k), cv::Point2f(float(pixel.x() + noise(rng_)), float(pixel.y() + noise(rng_)))});
       if (track.history.size() > 30) track.history.erase(track.history.begin());
       live.push_back(std::move(track));
     }
@@ -212,21 +214,21 @@ TEST(PlaneTracker, FindsAndFollowsTheFloorAndTheWall) {
       }
       seen.insert(truth);
       // The reference points map onto the current ones by the homography (all but those
-      // that strayed since the reference frame and stay for following the plane lately).
+      // that strayed since the reference frame and stay for following the plane lately),
+      // where it is determined: not on the thin strip of floor left at the end.
+      if (!plane.normal) continue;
       int mapped = 0;
       for (size_t i = 0; i < plane.points.size(); ++i) {
-        const cv::Vec3d q = plane.homography *
-                            cv::Vec3d(plane.reference_points[i].x, plane.reference_points[i].y, 1.0);
+        const cv::Vec3d q = plane.homography * cv::Vec3d(plane.reference_points[i].x,
+                                                         plane.reference_points[i].y, 1.0);
         mapped += std::hypot(q[0] / q[2] - plane.points[i].x, q[1] / q[2] - plane.points[i].y) <=
                   PlaneOptions().eject_threshold_px;
       }
       EXPECT_GE(mapped, 0.8 * plane.points.size()) << "plane " << plane.id << " frame " << k;
-      if (plane.normal) {
-        const Eigen::Matrix3d cam_from_world = walk.WorldFromCam(k / 30.0).transpose();
-        const Eigen::Vector3d truth_normal =
-            cam_from_world * (truth == 1 ? -Eigen::Vector3d::UnitY() : -Eigen::Vector3d::UnitZ());
-        normal_errors.push_back(AngleDeg(*plane.normal, truth_normal));
-      }
+      const Eigen::Matrix3d cam_from_world = walk.WorldFromCam(k / 30.0).transpose();
+      const Eigen::Vector3d truth_normal =
+          cam_from_world * (truth == 1 ? -Eigen::Vector3d::UnitY() : -Eigen::Vector3d::UnitZ());
+      normal_errors.push_back(AngleDeg(*plane.normal, truth_normal));
     }
     if (k >= PlaneOptions().baseline_frames + 2) frames_with_both += seen.size() == 2;
   }
@@ -259,7 +261,8 @@ TEST(FindPlanesBetweenShots, FloorAndWallFromTwoViews) {
   ApplyScenarioOverride(&scenario, "resolution", "640x480");
   const std::shared_ptr<const Scene> scene = BuildScene(scenario);
   const Renderer renderer(scene);
-  const CameraIntrinsics camera = MakeSimulatedSequence(scenario)->ground_truth()->front().intrinsics;
+  const CameraIntrinsics camera =
+      MakeSimulatedSequence(scenario)->ground_truth()->front().intrinsics;
   // Looking at the east wall (x = 4) and the floor in front of it, from 2.5 m, then a
   // step to the side and forward, turned a little.
   const Eigen::Isometry3d a = test::LookingAt({4.0, 0.0, 0.6}, 2.5, 0.0, 20.0);
@@ -282,13 +285,13 @@ TEST(FindPlanesBetweenShots, FloorAndWallFromTwoViews) {
       const cv::Point2f p = keys_b.keypoints[m.trainIdx].pt;
       ++votes[view_b.labels.at<uint16_t>(cvRound(p.y), cvRound(p.x))];
     }
-    const auto majority = std::max_element(votes.begin(), votes.end(), [](auto& x, auto& y) {
-      return x.second < y.second;
-    });
+    const auto majority = std::max_element(votes.begin(), votes.end(),
+                                           [](auto& x, auto& y) { return x.second < y.second; });
     ASSERT_GT(majority->first, 0);
     const Plane& truth = scene->planes[majority->first - 1];
     found.insert(truth.name);
-    std::printf("%s: %zu matches, %d on it, %zu motions\n", truth.name.c_str(), plane.matches.size(), majority->second, plane.motions.size());
+    std::printf("%s: %zu matches, %d on it, %zu motions\n", truth.name.c_str(),
+                plane.matches.size(), majority->second, plane.motions.size());
     EXPECT_GE(majority->second, 0.95 * plane.matches.size()) << truth.name;
     EXPECT_FALSE(plane.motions.empty());
     if (plane.motions.size() == 1) {

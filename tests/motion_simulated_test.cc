@@ -1,0 +1,257 @@
+// Boxes 4-6 on simulated walks, measured against the simulator's plane labels: which
+// scene plane each pixel sees, so which plane each track truly lies on.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <future>
+#include <map>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "devices/sim/scene.h"
+#include "devices/sim/simulator.h"
+#include "pipeline/motion_stage.h"
+#include "pipeline/rectifier.h"
+
+namespace autocal {
+namespace {
+
+// Planes come from parallax: a frame is scored once the camera has moved at least this
+// far over box 6's baseline (the corridor walk starts turning on the spot).
+constexpr double kMinTravelM = 0.15;
+// A plane can be found only once its tracks have been followed over the baseline: it
+// must be found once it has filled 20% of the image for that long.
+const int kBaselineFrames = PlaneOptions().baseline_frames;
+
+struct WalkRun {
+  int frames = 0;            // Frames scored (the camera moving).
+  int64_t members = 0;       // Plane memberships, over all frames and planes...
+  int64_t pure_members = 0;  // ...of them on the plane's true identity.
+  int big_floor_frames = 0;  // Frames where the floor has filled 20% of the image over
+  int floor_found = 0;       // the baseline, and of them those where a plane is the floor.
+  int big_wall_frames = 0;   // Likewise the wall faced (the wall filling most).
+  int wall_found = 0;
+  int late = 0;  // Frames where floor or wall filled 20% but not yet for long.
+  int late_found = 0;
+  int id_pairs = 0;                       // (true plane, consecutive frames) both detected...
+  int id_kept = 0;                        // ...where one id carries over.
+  std::vector<double> normal_errors_deg;  // Of planes with a normal, against the truth.
+  double tracks = 0.0;                    // Mean live tracks per frame.
+  double planes = 0.0;                    // Mean planes per frame.
+  double features_ms = 0.0, flow_ms = 0.0, planes_ms = 0.0;  // Mean per frame.
+
+  double Purity() const { return double(pure_members) / std::max<int64_t>(1, members); }
+  double FloorRate() const { return double(floor_found) / std::max(1, big_floor_frames); }
+  double WallRate() const { return double(wall_found) / std::max(1, big_wall_frames); }
+  double Stability() const { return double(id_kept) / std::max(1, id_pairs); }
+  double NormalQuantile(double q) const {
+    if (normal_errors_deg.empty()) return 180.0;
+    std::vector<double> e = normal_errors_deg;
+    std::nth_element(e.begin(), e.begin() + size_t(q * (e.size() - 1)), e.end());
+    return e[size_t(q * (e.size() - 1))];
+  }
+};
+
+bool IsWall(const std::string& name) {
+  return name.rfind("wall_", 0) == 0 || name.rfind("end_", 0) == 0;
+}
+
+// Walks a scenario and scores every frame. `rectified`: boxes 4-6 see box 3's
+// undistorted, equalized image (as in the pipeline); otherwise the raw green channel,
+// and the tracks are undistorted with the true lens.
+WalkRun RunWalk(const std::string& scenario_name, const std::string& lens, double seconds,
+                const std::string& resolution, bool rectified) {
+  Scenario scenario = LoadScenario(scenario_name);
+  ApplyScenarioOverride(&scenario, "lens", lens);
+  ApplyScenarioOverride(&scenario, "seconds", std::to_string(seconds));
+  ApplyScenarioOverride(&scenario, "resolution", resolution);
+  const auto sequence = MakeSimulatedSequence(scenario);
+  const std::shared_ptr<const Scene> scene = BuildScene(scenario);
+  int floor_id = 0;
+  for (const Plane& p : scene->planes) {
+    if (p.name == "floor") floor_id = p.id;
+  }
+
+  MotionStage stage;
+  Rectifier rectifier;
+  WalkRun run;
+  std::map<int, int> previous_identity;  // Plane id -> true plane id, last frame.
+  std::map<int, int> big_for;            // True plane id -> frames it has filled 20%.
+  struct Rendered {
+    cv::Mat frame, labels;
+  };
+  auto render = [&](size_t i) {
+    return Rendered{sequence->LoadFrame(i), *sequence->LoadPlaneLabels(i)};
+  };
+  std::future<Rendered> next = std::async(std::launch::async, render, 0);
+  for (size_t i = 0; i < sequence->frame_count(); ++i) {
+    const Rendered rendered = next.get();
+    if (i + 1 < sequence->frame_count()) next = std::async(std::launch::async, render, i + 1);
+    const GroundTruthFrame& truth = (*sequence->ground_truth())[i];
+    CameraIntrinsics camera = truth.intrinsics;
+    cv::Mat gray;
+    if (rectified) {
+      gray = rectifier.Geometry(rendered.frame, camera);
+      camera.k1 = camera.k2 = camera.p1 = camera.p2 = camera.k3 = 0.0;
+    } else {
+      gray = rectifier.Equalize(rectifier.Channel(rendered.frame));
+    }
+    const MotionSnapshot snapshot = stage.Process(truth.t_ns, gray, camera);
+
+    // How much of the image each true plane fills.
+    const cv::Mat& labels = rendered.labels;
+    std::map<int, double> fill;
+    for (int y = 0; y < labels.rows; ++y) {
+      for (int x = 0; x < labels.cols; ++x) fill[labels.at<uint16_t>(y, x)] += 1.0;
+    }
+    for (auto& [id, f] : fill) f /= double(labels.total());
+    for (const Plane& p : scene->planes) big_for[p.id] = fill[p.id] >= 0.2 ? big_for[p.id] + 1 : 0;
+    if (i < size_t(kBaselineFrames) ||
+        (truth.world_from_cam_translation -
+         (*sequence->ground_truth())[i - kBaselineFrames].world_from_cam_translation)
+                .norm() < kMinTravelM) {
+      previous_identity.clear();
+      continue;
+    }
+
+    ++run.frames;
+    run.tracks += snapshot.tracks.size();
+    run.planes += snapshot.planes.size();
+    run.features_ms += snapshot.features_ms;
+    run.flow_ms += snapshot.flow_ms;
+    run.planes_ms += snapshot.planes_ms;
+
+    // The true plane under a tracked point: labels live in the raw image.
+    auto true_plane = [&](const cv::Point2f& p) -> int {
+      Eigen::Vector2d raw(p.x, p.y);
+      if (rectified) {
+        const Eigen::Vector3d ray((p.x - camera.cx) / camera.fx, (p.y - camera.cy) / camera.fy,
+                                  1.0);
+        raw = Project(truth.intrinsics, ray);
+      }
+      const int x = int(std::lround(raw.x())), y = int(std::lround(raw.y()));
+      if (x < 0 || y < 0 || x >= labels.cols || y >= labels.rows) return 0;
+      return labels.at<uint16_t>(y, x);
+    };
+
+    int wall_faced = 0;
+    for (const auto& [id, f] : fill) {
+      if (id > 0 && IsWall(scene->planes[id - 1].name) && (!wall_faced || f > fill[wall_faced])) {
+        wall_faced = id;
+      }
+    }
+
+    const Eigen::Matrix3d cam_from_world =
+        truth.world_from_cam_rotation.toRotationMatrix().transpose();
+    std::map<int, int> identity;  // Plane id -> true plane id.
+    std::set<int> found;
+    for (const DominantPlane& plane : snapshot.planes) {
+      std::map<int, int> votes;
+      for (const cv::Point2f& p : plane.points) ++votes[true_plane(p)];
+      const auto majority =
+          std::max_element(votes.begin(), votes.end(),
+                           [](const auto& a, const auto& b) { return a.second < b.second; });
+      identity[plane.id] = majority->first;
+      found.insert(majority->first);
+      run.members += plane.points.size();
+      run.pure_members += majority->first != 0 ? majority->second : 0;
+      if (plane.normal && majority->first != 0) {
+        const Eigen::Vector3d truth_normal =
+            cam_from_world * scene->planes[majority->first - 1].normal();
+        run.normal_errors_deg.push_back(
+            std::acos(std::clamp(plane.normal->dot(truth_normal), -1.0, 1.0)) * 180.0 / M_PI);
+      }
+    }
+    for (int id : {floor_id, wall_faced}) {
+      if (id == 0 || big_for[id] == 0) continue;
+      if (big_for[id] <= kBaselineFrames) {
+        ++run.late;
+        run.late_found += found.count(id);
+      } else if (id == floor_id) {
+        ++run.big_floor_frames;
+        run.floor_found += found.count(id);
+      } else {
+        ++run.big_wall_frames;
+        run.wall_found += found.count(id);
+      }
+    }
+    // A true plane detected in two consecutive frames should keep one of its ids.
+    std::set<int> both;
+    for (const auto& [id, truth_id] : previous_identity) {
+      if (truth_id != 0 && found.count(truth_id)) both.insert(truth_id);
+    }
+    for (int truth_id : both) {
+      ++run.id_pairs;
+      bool kept = false;
+      for (const auto& [id, t] : identity) {
+        kept |= t == truth_id && previous_identity.count(id) && previous_identity[id] == truth_id;
+      }
+      run.id_kept += kept;
+    }
+    previous_identity = identity;
+  }
+  const double n = std::max(1, run.frames);
+  run.tracks /= n;
+  run.planes /= n;
+  run.features_ms /= n;
+  run.flow_ms /= n;
+  run.planes_ms /= n;
+  std::printf(
+      "%s %s %s %s: %d frames, %.0f tracks, %.1f planes a frame; purity %.4f (%lld "
+      "memberships); floor found %d/%d, wall faced found %d/%d (and %d/%d within the baseline "
+      "of filling 20%%); ids kept %d/%d (%.3f); normals %zu, median %.2f deg, 90%% %.2f deg; "
+      "ms/frame features %.2f flow %.2f planes %.2f\n",
+      scenario_name.c_str(), lens.c_str(), resolution.c_str(), rectified ? "rectified" : "raw",
+      run.frames, run.tracks, run.planes, run.Purity(), (long long)run.members, run.floor_found,
+      run.big_floor_frames, run.wall_found, run.big_wall_frames, run.late_found, run.late,
+      run.id_kept, run.id_pairs, run.Stability(), run.normal_errors_deg.size(),
+      run.NormalQuantile(0.5), run.NormalQuantile(0.9), run.features_ms, run.flow_ms,
+      run.planes_ms);
+  return run;
+}
+
+// What the issue asks of box 6 on a walk: at least 95% of the tracks a plane holds lie on
+// its true plane; the floor and the wall faced are found whenever they have filled 20% of
+// the image for box 6's baseline (a plane sweeping in during a fast turn can take a few
+// frames more: `wall_rate`); planes keep their ids from frame to frame.
+void ExpectGood(const WalkRun& run, double purity = 0.95, double wall_rate = 0.95) {
+  EXPECT_GT(run.frames, 0);
+  EXPECT_GE(run.Purity(), purity) << "fraction of plane tracks on the plane's true identity";
+  EXPECT_GT(run.big_floor_frames, 0);
+  EXPECT_EQ(run.floor_found, run.big_floor_frames)
+      << "frames with the floor over 20% but no floor plane";
+  EXPECT_GT(run.big_wall_frames, 0);
+  EXPECT_GE(run.WallRate(), wall_rate) << "frames with the wall faced over 20% and a plane on it";
+  EXPECT_GE(run.Stability(), 0.9) << "consecutive frames where a plane kept its id";
+  EXPECT_LT(run.NormalQuantile(0.5), 6.0) << "median error of the plane normals, deg";
+}
+
+TEST(MotionSimulated, OfficeWalk) {
+  ExpectGood(RunWalk("office", "tessar", 10.0, "320x240", true));
+}
+
+TEST(MotionSimulated, CorridorWalk) {
+  ExpectGood(RunWalk("corridor", "tessar", 10.0, "320x240", true));
+}
+
+// The raw image through a strong barrel, tracks undistorted with the lens for box 6. Its
+// periphery is squeezed, so tracks there are shorter on texture and purity is lower;
+// without undistortion the normals would be off by 28 deg (median) and purity 0.88.
+TEST(MotionSimulated, OfficeWalkRawSonnar) {
+  ExpectGood(RunWalk("office", "sonnar", 6.0, "320x240", false), 0.9, 0.9);
+}
+
+// The issue's resolution; 320x240 above keeps the tests fast (rendering and tracking a
+// quarter of the pixels), with purity a point lower: thresholds are in pixels, which
+// span twice the angle. Run with --gtest_also_run_disabled_tests.
+TEST(MotionSimulated, DISABLED_OfficeWalk640x480) {
+  ExpectGood(RunWalk("office", "tessar", 10.0, "640x480", true));
+}
+
+TEST(MotionSimulated, DISABLED_CorridorWalk640x480) {
+  ExpectGood(RunWalk("corridor", "tessar", 10.0, "640x480", true));
+}
+
+}  // namespace
+}  // namespace autocal
