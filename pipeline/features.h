@@ -1,6 +1,6 @@
 // Box 4, features: FAST corners to start tracks at, spread over the image by a grid of
-// cells, and scale-invariant keypoints with descriptors (ORB or SIFT) for still shots and
-// for finding a plane again.
+// cells, and scale-invariant keypoints with descriptors (SIFT or ORB) to match still shots
+// (and, in time, to find a lost plane again).
 #pragma once
 
 #include <climits>

@@ -462,15 +462,13 @@ void PlaneTracker::Detect(const Frame& frame) {
     }
     // Over the long baseline a mixture of planes too close in depth to part over the
     // short one comes apart: the core keeps the long fit's tracks.
-    std::vector<size_t> far_in;
     std::vector<cv::Point2f> far_from, far_to;
     for (size_t k : in) {
       if (!frame.has_far[pool[k]]) continue;
-      far_in.push_back(k);
       far_from.push_back(frame.far[pool[k]]);
       far_to.push_back(now[k]);
     }
-    if (int(far_in.size()) >= options_.min_tracks_to_keep) {
+    if (int(far_from.size()) >= options_.min_tracks_to_keep) {
       std::vector<uchar> far_mask;
       bool far_ok = false;
       const cv::Matx33d longer =
