@@ -237,6 +237,22 @@ std::optional<fs::path> FindEurocMav0(const fs::path& dir) {
   return std::nullopt;
 }
 
+namespace {
+
+// What a dataset does not state: the frame size from its first frame, the rates from
+// its timestamps.
+std::unique_ptr<Sequence> FinishDataset(ImageFileSequence::Contents contents) {
+  if (contents.session.width <= 0 || contents.session.height <= 0) {
+    const cv::Size size = FirstFrameSize(contents);
+    contents.session.width = size.width;
+    contents.session.height = size.height;
+  }
+  FillMissingRates(contents, &contents.session);
+  return std::make_unique<ImageFileSequence>(std::move(contents));
+}
+
+}  // namespace
+
 std::unique_ptr<Sequence> OpenEuroc(const std::string& dir, const ReadOptions& options) {
   const std::optional<fs::path> mav0 = FindEurocMav0(dir);
   if (!mav0) throw Error(dir, 0, std::string("is not a EuRoC folder: ") + kEurocLayout);
@@ -261,13 +277,7 @@ std::unique_ptr<Sequence> OpenEuroc(const std::string& dir, const ReadOptions& o
     contents.accel.push_back(sample);
   });
 
-  if (contents.session.width <= 0 || contents.session.height <= 0) {
-    const cv::Size size = FirstFrameSize(contents);
-    contents.session.width = size.width;
-    contents.session.height = size.height;
-  }
-  FillMissingRates(contents, &contents.session);
-  return std::make_unique<ImageFileSequence>(std::move(contents));
+  return FinishDataset(std::move(contents));
 }
 
 bool IsTumFolder(const fs::path& dir) {
@@ -315,13 +325,7 @@ std::unique_ptr<Sequence> OpenTum(const std::string& dir_name, const ReadOptions
     contents.accel.push_back(sample);
   });
 
-  if (contents.session.width <= 0 || contents.session.height <= 0) {
-    const cv::Size size = FirstFrameSize(contents);
-    contents.session.width = size.width;
-    contents.session.height = size.height;
-  }
-  FillMissingRates(contents, &contents.session);
-  return std::make_unique<ImageFileSequence>(std::move(contents));
+  return FinishDataset(std::move(contents));
 }
 
 std::unique_ptr<Sequence> OpenVideo(const std::string& path_name, const ReadOptions& options) {
