@@ -1,8 +1,5 @@
 #include "app/cli_commands.h"
 
-#include <unistd.h>
-
-#include <chrono>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -12,6 +9,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "app/cli_util.h"
 #include "devices/inspect.h"
 #include "devices/recording_writer.h"
 #include "devices/sequence.h"
@@ -21,66 +19,6 @@
 #include "pipeline/lens_stage.h"
 
 namespace autocal::cli {
-namespace {
-
-// Parses `arguments` for subcommand `name`; prints help or the usage error itself.
-// Returns an exit code when the command should stop here.
-std::optional<int> Parse(QCommandLineParser& parser, const QString& name,
-                         const QStringList& arguments) {
-  parser.addHelpOption();
-  if (!parser.parse(QStringList{"autocal " + name} + arguments)) {
-    std::fprintf(stderr, "autocal %s: %s\n\n%s", qPrintable(name), qPrintable(parser.errorText()),
-                 qPrintable(parser.helpText()));
-    return 2;
-  }
-  if (parser.isSet("help")) {
-    std::printf("%s", qPrintable(parser.helpText()));
-    return 0;
-  }
-  return std::nullopt;
-}
-
-int UsageError(const QString& name, const QString& message, const QCommandLineParser& parser) {
-  std::fprintf(stderr, "autocal %s: %s\n\n%s", qPrintable(name), qPrintable(message),
-               qPrintable(parser.helpText()));
-  return 2;
-}
-
-// Progress on stderr: one line rewritten in place on a terminal, a line per 10% elsewhere.
-class ProgressPrinter {
- public:
-  ProgressPrinter(const char* what, const char* unit)
-      : what_(what),
-        unit_(unit),
-        tty_(isatty(STDERR_FILENO)),
-        start_(std::chrono::steady_clock::now()) {}
-
-  bool operator()(size_t done, size_t total) {
-    const int percent = total ? static_cast<int>(100 * done / total) : 100;
-    if (!tty_ && percent / 10 == last_decile_ && done != total) return true;
-    last_decile_ = percent / 10;
-    const double elapsed = Elapsed();
-    const double left = done ? elapsed * double(total - done) / double(done) : 0.0;
-    std::fprintf(stderr, "%s%s: %zu/%zu %s (%d%%), %.1f s elapsed, ~%.0f s left%s",
-                 tty_ ? "\r" : "", what_, done, total, unit_, percent, elapsed, left,
-                 tty_ ? "   " : "\n");
-    if (tty_ && done == total) std::fprintf(stderr, "\n");
-    return true;
-  }
-
-  double Elapsed() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  }
-
- private:
-  const char* what_;
-  const char* unit_;
-  bool tty_;
-  int last_decile_ = -1;
-  std::chrono::steady_clock::time_point start_;
-};
-
-}  // namespace
 
 int Simulate(const QStringList& arguments) {
   const QString name = "simulate";

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "pipeline/error.h"
+#include "pipeline/text_format.h"
 
 namespace autocal {
 namespace {
@@ -210,16 +211,7 @@ SessionInfo ReadSessionFile(const std::string& path) {
 }
 
 void WriteSessionFile(const std::string& path, const SessionInfo& session) {
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out << SessionToJson(session);
-    out.flush();
-    if (!out) throw Error(temporary, 0, "cannot be written");
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) throw Error(path, 0, "cannot be written: " + error.message());
+  WriteTextFile(path, SessionToJson(session));
 }
 
 }  // namespace autocal

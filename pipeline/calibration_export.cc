@@ -11,6 +11,7 @@
 #include <string_view>
 
 #include "pipeline/error.h"
+#include "pipeline/text_format.h"
 
 namespace autocal {
 namespace {
@@ -42,13 +43,6 @@ std::string CsvHeader() {
   return header;
 }
 
-// The shortest decimal that reads back as the same double ("nan", "inf" when not finite).
-std::string Shortest(double value) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  return std::string(buffer, result.ptr);
-}
-
 template <typename T>
 std::optional<T> Parse(std::string_view s) {
   T value{};
@@ -69,45 +63,10 @@ std::string CsvText(const std::vector<HistoryEntry>& history) {
   std::string text = CsvHeader() + "\n";
   for (const HistoryEntry& entry : history) {
     text += std::to_string(entry.t_ns);
-    for (const NumberColumn& column : kNumbers) text += "," + Shortest(entry.*column.field);
+    for (const NumberColumn& column : kNumbers) text += "," + ShortestDecimal(entry.*column.field);
     text += "," + CsvField(entry.verdict) + "," + CsvField(entry.reason) + "\n";
   }
   return text;
-}
-
-// JSON has no NaN or infinity: null, as JavaScript's JSON.stringify writes them.
-std::string JsonNumber(double value) { return std::isfinite(value) ? Shortest(value) : "null"; }
-
-std::string JsonString(const std::string& text) {
-  std::string quoted = "\"";
-  for (char c : text) {
-    switch (c) {
-      case '"':
-        quoted += "\\\"";
-        break;
-      case '\\':
-        quoted += "\\\\";
-        break;
-      case '\n':
-        quoted += "\\n";
-        break;
-      case '\r':
-        quoted += "\\r";
-        break;
-      case '\t':
-        quoted += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char escaped[8];
-          std::snprintf(escaped, sizeof(escaped), "\\u%04x", c);
-          quoted += escaped;
-        } else {
-          quoted += c;  // UTF-8 passes through.
-        }
-    }
-  }
-  return quoted + "\"";
 }
 
 std::string JsonText(const std::vector<HistoryEntry>& history) {

@@ -16,6 +16,7 @@
 #include <opencv2/core.hpp>
 
 #include "pipeline/error.h"
+#include "pipeline/text_format.h"
 
 namespace autocal {
 namespace {
@@ -107,17 +108,10 @@ int LineOfKey(const std::string& text, std::string_view key) {
 
 // ---- Numbers ----------------------------------------------------------------------------
 
-// The shortest decimal that reads back as the same double.
-std::string Shortest(double value) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  return std::string(buffer, result.ptr);
-}
-
-// Shortest() with a '.' in the mantissa: YAML 1.1 readers (PyYAML, under Kalibr and ROS's
+// ShortestDecimal() with a '.' in the mantissa: YAML 1.1 readers (PyYAML, under Kalibr and ROS's
 // Python tools) take "1e-05" for a string and "427" for an integer.
 std::string YamlNumber(double value) {
-  std::string s = Shortest(value);
+  std::string s = ShortestDecimal(value);
   if (s.find('.') == std::string::npos) s.insert(std::min(s.find('e'), s.size()), ".0");
   return s;
 }
@@ -365,7 +359,7 @@ CameraIntrinsics FromMatrices(const Document& doc, CalibrationFormat* format) {
   for (size_t i = 5; i < d.size(); ++i) {
     if (d[i] != 0) {
       throw doc.At("distortion_coefficients",
-                   "distortion coefficient " + std::to_string(i + 1) + " is " + Shortest(d[i]) +
+                   "distortion coefficient " + std::to_string(i + 1) + " is " + ShortestDecimal(d[i]) +
                        ": the model stops at k3 (k1 k2 p1 p2 k3); rational and thin-prism "
                        "terms cannot be expressed");
     }
@@ -705,7 +699,7 @@ std::string RosText(const CameraIntrinsics& c, const std::string& name) {
 std::string KalibrText(const std::string& path, const CameraIntrinsics& c) {
   if (c.k3 != 0) {
     throw Error(path, 0,
-                "k3 = " + Shortest(c.k3) +
+                "k3 = " + ShortestDecimal(c.k3) +
                     " cannot be expressed: Kalibr's radtan model has 4 coefficients "
                     "(k1, k2, r1, r2); write another format or estimate without k3");
   }
@@ -719,10 +713,10 @@ std::string ColmapText(const CameraIntrinsics& c) {
   const bool full = c.k3 != 0;
   std::string line =
       std::string("1 ") + (full ? "FULL_OPENCV " : "OPENCV ") + std::to_string(c.width) + " " +
-      std::to_string(c.height) + " " + Shortest(c.fx) + " " + Shortest(c.fy) + " " +
-      *ShiftedByHalf(Shortest(c.cx), true) + " " + *ShiftedByHalf(Shortest(c.cy), true);
-  for (double d : {c.k1, c.k2, c.p1, c.p2}) line += " " + Shortest(d);
-  if (full) line += " " + Shortest(c.k3) + " 0 0 0";
+      std::to_string(c.height) + " " + ShortestDecimal(c.fx) + " " + ShortestDecimal(c.fy) + " " +
+      *ShiftedByHalf(ShortestDecimal(c.cx), true) + " " + *ShiftedByHalf(ShortestDecimal(c.cy), true);
+  for (double d : {c.k1, c.k2, c.p1, c.p2}) line += " " + ShortestDecimal(d);
+  if (full) line += " " + ShortestDecimal(c.k3) + " 0 0 0";
   return "# Camera list with one line of data per camera:\n"
          "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
          "# Number of cameras: 1\n" +

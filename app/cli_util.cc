@@ -1,0 +1,53 @@
+#include "app/cli_util.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+
+namespace autocal::cli {
+
+std::optional<int> Parse(QCommandLineParser& parser, const QString& name,
+                         const QStringList& arguments) {
+  parser.addHelpOption();
+  if (!parser.parse(QStringList{"autocal " + name} + arguments)) {
+    std::fprintf(stderr, "autocal %s: %s\n\n%s", qPrintable(name), qPrintable(parser.errorText()),
+                 qPrintable(parser.helpText()));
+    return 2;
+  }
+  if (parser.isSet("help")) {
+    std::printf("%s", qPrintable(parser.helpText()));
+    return 0;
+  }
+  return std::nullopt;
+}
+
+int UsageError(const QString& name, const QString& message, const QCommandLineParser& parser) {
+  std::fprintf(stderr, "autocal %s: %s\n\n%s", qPrintable(name), qPrintable(message),
+               qPrintable(parser.helpText()));
+  return 2;
+}
+
+ProgressPrinter::ProgressPrinter(const char* what, const char* unit)
+    : what_(what),
+      unit_(unit),
+      tty_(isatty(STDERR_FILENO)),
+      start_(std::chrono::steady_clock::now()) {}
+
+bool ProgressPrinter::operator()(size_t done, size_t total, const QString& detail) {
+  const int percent = total ? static_cast<int>(100 * done / total) : 100;
+  if (!tty_ && percent / 10 == last_decile_ && done != total) return true;
+  last_decile_ = percent / 10;
+  const double elapsed = Elapsed();
+  const double left = done ? elapsed * double(total - done) / double(done) : 0.0;
+  std::fprintf(stderr, "%s%s: %zu/%zu %s (%d%%), %.1f s elapsed, ~%.0f s left%s%s%s",
+               tty_ ? "\r" : "", what_, done, total, unit_, percent, elapsed, left,
+               detail.isEmpty() ? "" : "; ", qPrintable(detail), tty_ ? "   " : "\n");
+  if (tty_ && done == total) std::fprintf(stderr, "\n");
+  return true;
+}
+
+double ProgressPrinter::Elapsed() const {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+}
+
+}  // namespace autocal::cli

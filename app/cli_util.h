@@ -1,0 +1,40 @@
+// What every subcommand of `autocal` shares: option parsing with its help and usage
+// errors, and progress on stderr.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <optional>
+
+#include <QCommandLineParser>
+#include <QString>
+#include <QStringList>
+
+namespace autocal::cli {
+
+// Parses `arguments` for subcommand `name`; prints help or the usage error itself.
+// Returns an exit code when the command should stop here.
+std::optional<int> Parse(QCommandLineParser& parser, const QString& name,
+                         const QStringList& arguments);
+
+// Prints `message` and the help; returns the bad-usage exit code, 2.
+int UsageError(const QString& name, const QString& message, const QCommandLineParser& parser);
+
+// Progress on stderr: one line rewritten in place on a terminal, a line per 10% elsewhere.
+class ProgressPrinter {
+ public:
+  ProgressPrinter(const char* what, const char* unit);
+
+  // `detail`, when not empty, is appended to the line.
+  bool operator()(size_t done, size_t total, const QString& detail = {});
+  double Elapsed() const;
+
+ private:
+  const char* what_;
+  const char* unit_;
+  bool tty_;
+  int last_decile_ = -1;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace autocal::cli
