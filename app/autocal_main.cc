@@ -23,6 +23,9 @@ const std::map<QString, Subcommand>& Subcommands() {
       {"info", {autocal::cli::Info, "validate a recording and report its contents"}},
       {"distortion",
        {autocal::cli::Distortion, "estimate lens distortion from straight lines in still images"}},
+      {"record",
+       {autocal::cli::Record, "record a live camera + accelerometer (or any source) to a folder"}},
+      {"devices", {autocal::cli::Devices, "list cameras and look for a USB accelerometer"}},
   };
   return kSubcommands;
 }
