@@ -280,7 +280,7 @@ void LiveCamera::Impl::Run() {
     capture_.release();
     lost_after_ns_ = last_frame_ns_;
     AddEvent(CameraEvent::Kind::kDisconnected, MonotonicNowNs(),
-             "lost " + options_.device + " (unplugged, or a read failed)");
+             "lost " + options_.device + " (unplugged or a read failed)");
     if (!SleepUntil(std::chrono::steady_clock::now() + options_.reconnect_interval)) break;
   }
   capture_.release();

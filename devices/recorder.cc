@@ -11,13 +11,19 @@
 #include <optional>
 #include <thread>
 
+#include <opencv2/core/utility.hpp>
+
 #include "devices/recording_writer.h"
+#include "devices/session_io.h"
 #include "pipeline/error.h"
 
 namespace fs = std::filesystem;
 
 namespace autocal {
 namespace {
+
+// Frames the writer encodes at once, in parallel.
+constexpr size_t kFramesPerBatch = 4;
 
 // A CSV field: quoted, with quotes doubled, when it holds a separator or a quote.
 std::string CsvField(const std::string& text) {
@@ -96,20 +102,28 @@ class WriterThread {
   }
 
  private:
+  // Takes what is queued, encodes its frames in parallel (PNG encoding is most of the
+  // writer's time, tens of ms a frame), then appends every row in order.
   void Run() {
     while (true) {
-      SourceItem item;
+      std::vector<SourceItem> batch;
       {
         std::unique_lock lock(mutex_);
         ready_.wait(lock, [&] { return !queue_.empty() || closed_; });
         if (queue_.empty()) return;
-        item = std::move(queue_.front());
-        queue_.pop_front();
-        if (item.kind == SourceItem::Kind::kFrame) --queued_frames_;
+        size_t frames = 0;
+        while (!queue_.empty() && frames < kFramesPerBatch) {
+          if (queue_.front().kind == SourceItem::Kind::kFrame) {
+            --queued_frames_;
+            ++frames;
+          }
+          batch.push_back(std::move(queue_.front()));
+          queue_.pop_front();
+        }
       }
-      space_.notify_one();
+      space_.notify_all();
       try {
-        Write(item);
+        Write(&batch);
       } catch (...) {
         std::lock_guard lock(mutex_);
         failure_ = std::current_exception();
@@ -121,32 +135,65 @@ class WriterThread {
     }
   }
 
-  void Write(const SourceItem& item) {
-    switch (item.kind) {
-      case SourceItem::Kind::kFrame:
-        // The writer refuses times that do not increase; a repeated time is skipped.
-        if (last_frame_ns_ && item.t_ns <= *last_frame_ns_) return Refuse();
-        writer_->AddFrame(item.t_ns, item.image);
-        last_frame_ns_ = item.t_ns;
-        if (!first_frame_ns_) first_frame_ns_ = item.t_ns;
-        {
-          std::lock_guard lock(mutex_);
-          ++progress_.frames_written;
-          progress_.recorded_s = 1e-9 * static_cast<double>(item.t_ns - *first_frame_ns_);
+  void Write(std::vector<SourceItem>* batch) {
+    // The writer refuses times that do not increase: such an item is skipped, and counted.
+    std::vector<const SourceItem*> frames;
+    std::optional<int64_t> last_ns = last_frame_ns_;
+    for (SourceItem& item : *batch) {
+      if (item.kind != SourceItem::Kind::kFrame) continue;
+      if (last_ns && item.t_ns <= *last_ns) {
+        item.image.release();  // Marks it refused.
+        continue;
+      }
+      last_ns = item.t_ns;
+      frames.push_back(&item);
+    }
+    std::vector<std::exception_ptr> failures(frames.size());
+    cv::parallel_for_(cv::Range(0, static_cast<int>(frames.size())), [&](const cv::Range& range) {
+      for (int i = range.start; i < range.end; ++i) {
+        try {
+          writer_->WriteFrameImage(frames[i]->t_ns, frames[i]->image);
+        } catch (...) {
+          failures[i] = std::current_exception();
         }
-        return;
-      case SourceItem::Kind::kAccel:
-        if (last_accel_ns_ && item.t_ns <= *last_accel_ns_) return Refuse();
-        writer_->AddAccel(item.accel);
-        last_accel_ns_ = item.t_ns;
-        {
-          std::lock_guard lock(mutex_);
-          ++progress_.accel_written;
-        }
-        return;
-      case SourceItem::Kind::kEvent:
-        WriteEvent(item.event);
-        return;
+      }
+    });
+    for (const std::exception_ptr& failure : failures) {
+      if (failure) std::rethrow_exception(failure);
+    }
+
+    for (const SourceItem& item : *batch) {
+      switch (item.kind) {
+        case SourceItem::Kind::kFrame:
+          if (item.image.empty()) {
+            Refuse();
+            break;
+          }
+          writer_->AppendFrameRow(item.t_ns);
+          last_frame_ns_ = item.t_ns;
+          if (!first_frame_ns_) first_frame_ns_ = item.t_ns;
+          {
+            std::lock_guard lock(mutex_);
+            ++progress_.frames_written;
+            progress_.recorded_s = 1e-9 * static_cast<double>(item.t_ns - *first_frame_ns_);
+          }
+          break;
+        case SourceItem::Kind::kAccel:
+          if (last_accel_ns_ && item.t_ns <= *last_accel_ns_) {
+            Refuse();
+            break;
+          }
+          writer_->AddAccel(item.accel);
+          last_accel_ns_ = item.t_ns;
+          {
+            std::lock_guard lock(mutex_);
+            ++progress_.accel_written;
+          }
+          break;
+        case SourceItem::Kind::kEvent:
+          WriteEvent(item.event);
+          break;
+      }
     }
   }
 
@@ -261,6 +308,8 @@ RecorderProgress Record(FrameSource& source, const std::string& dir,
   source.Stop();
   writer_thread.Close();
   if (const std::exception_ptr failure = writer_thread.failure()) std::rethrow_exception(failure);
+  // A live accelerometer's rate is known only now; the file is replaced whole.
+  if (source.live()) WriteSessionFile((fs::path(dir) / "session.json").string(), source.session());
   const RecorderProgress last = report();
   if (progress) progress(last);
   return last;

@@ -3,7 +3,8 @@
 // and appends them, every row flushed, so that a killed process leaves a recording
 // readable up to its last written row. A live source is never held back by the disk: when
 // the writer falls behind, the oldest queued frame is dropped and counted. Device events
-// (a camera unplugged and back) go to events.csv in the recording. See docs/devices.md.
+// (a camera unplugged and back) go to events.csv in the recording, and at the end of a live
+// recording session.json is rewritten with the rates measured. See docs/devices.md.
 #pragma once
 
 #include <atomic>

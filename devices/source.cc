@@ -286,7 +286,7 @@ class LiveSource : public FrameSource {
     session.camera_device = camera_->Describe();
     session.width = camera.width;
     session.height = camera.height;
-    session.frame_rate_hz = camera_->nominal_fps();
+    session.frame_rate_hz = camera_->nominal_fps() > 0 ? camera_->nominal_fps() : camera.rate_hz;
     if (accelerometer_) {
       session.accelerometer_device = accelerometer_->Describe();
       session.accel_rate_hz = accelerometer_->stats().rate_hz;
