@@ -12,28 +12,9 @@
 
 #include "devices/sequence.h"
 #include "widgets/plot_decimation.h"
+#include "widgets/plot_ticks.h"
 
 namespace autocal {
-namespace {
-
-// A tick interval of 1, 2 or 5 times a power of ten giving about `ticks` ticks.
-double NiceTickInterval(double span, int ticks) {
-  const double raw = span / std::max(ticks, 1);
-  const double power = std::pow(10.0, std::floor(std::log10(raw)));
-  for (double step : {1.0, 2.0, 5.0}) {
-    if (raw <= step * power) return step * power;
-  }
-  return 10.0 * power;
-}
-
-// A printf format with just enough decimals for ticks `tick` apart.
-QString LabelFormat(double tick) {
-  const int decimals = std::max(0, -static_cast<int>(std::floor(std::log10(tick) + 1e-9)));
-  return QStringLiteral("%.%1f").arg(decimals);
-}
-
-}  // namespace
-
 AccelPlot::AccelPlot(QWidget* parent) : QChartView(parent) {
   auto* chart = new QChart;
   // Space goes to the curves: no padding around the chart, the legend beside it.

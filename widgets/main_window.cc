@@ -37,7 +37,10 @@
 #include "devices/sequence.h"
 #include "pipeline/version.h"
 #include "widgets/accel_plot.h"
+#include "widgets/calibration_plots.h"
+#include "widgets/calibration_series.h"
 #include "widgets/frame_loader.h"
+#include "widgets/history_table.h"
 #include "widgets/playback_controller.h"
 #include "widgets/sequence_opener.h"
 #include "widgets/video_view.h"
@@ -52,7 +55,7 @@ constexpr char kSpeedKey[] = "playback/speed";
 constexpr char kPlotWindowKey[] = "plot/window_seconds";
 constexpr char kLastPathKey[] = "files/last_path";
 // Bumped when the docks change, so an old saved layout is not applied to a new one.
-constexpr int kStateVersion = 1;
+constexpr int kStateVersion = 2;
 
 constexpr double kSpeeds[] = {0.25, 0.5, 1.0, 2.0, 4.0};
 
@@ -74,7 +77,8 @@ MainWindow::MainWindow(QWidget* parent)
     : QMainWindow(parent),
       playback_(new PlaybackController(this)),
       loader_(new FrameLoader(this)),
-      opener_(new SequenceOpener(this)) {
+      opener_(new SequenceOpener(this)),
+      history_opener_(new HistoryOpener(this)) {
   setWindowTitle(tr("autocal workbench"));
   setAcceptDrops(true);
   createActions();
@@ -99,6 +103,10 @@ void MainWindow::createActions() {
   file->addAction(tr("Open &Simulation\u2026"), this, &MainWindow::openSimulationDialog);
   file->addAction(tr("Open Simulated &Vest (%1)").arg(QString::fromLatin1(kDefaultSource)), this,
                   [this] { open(QString::fromLatin1(kDefaultSource)); });
+  file->addSeparator();
+  QAction* open_history =
+      file->addAction(tr("Open &History…"), this, &MainWindow::openHistoryDialog);
+  open_history->setShortcut(Qt::CTRL | Qt::SHIFT | Qt::Key_O);
   file->addSeparator();
   QAction* quit = file->addAction(tr("&Quit"), this, &QWidget::close);
   quit->setShortcut(QKeySequence::Quit);
@@ -139,6 +147,7 @@ void MainWindow::createCentralArea() {
       QStringLiteral("00000.000 s / 00000.000 s   frame 000000 of 000000")));
 
   speed_box_ = new QComboBox;
+  speed_box_->setObjectName(QStringLiteral("speed"));
   speed_box_->setFocusPolicy(Qt::ClickFocus);
   speed_box_->setToolTip(tr("Playback speed"));
   for (double speed : kSpeeds) {
@@ -147,6 +156,7 @@ void MainWindow::createCentralArea() {
   speed_box_->setCurrentIndex(speed_box_->findData(playback_->speed()));
 
   window_box_ = new QDoubleSpinBox;
+  window_box_->setObjectName(QStringLiteral("plot_window"));
   window_box_->setFocusPolicy(Qt::ClickFocus);
   window_box_->setRange(AccelPlot::kMinWindowSeconds, AccelPlot::kMaxWindowSeconds);
   window_box_->setDecimals(1);
@@ -196,10 +206,26 @@ void MainWindow::createDocks() {
   log_dock->setWidget(log_);
   addDockWidget(Qt::BottomDockWidgetArea, log_dock);
   tabifyDockWidget(plot_dock, log_dock);
+
+  calibration_plots_ = new CalibrationPlots;
+  calibration_dock_ = new QDockWidget(tr("Calibration"), this);
+  calibration_dock_->setObjectName(QStringLiteral("calibration_dock"));
+  calibration_dock_->setWidget(calibration_plots_);
+  addDockWidget(Qt::BottomDockWidgetArea, calibration_dock_);
+  tabifyDockWidget(plot_dock, calibration_dock_);
+
+  history_table_ = new HistoryTable;
+  auto* history_dock = new QDockWidget(tr("History"), this);
+  history_dock->setObjectName(QStringLiteral("history_dock"));
+  history_dock->setWidget(history_table_);
+  addDockWidget(Qt::BottomDockWidgetArea, history_dock);
+  tabifyDockWidget(plot_dock, history_dock);
   plot_dock->raise();
 
   QMenu* view = menuBar()->addMenu(tr("&View"));
   view->addAction(plot_dock->toggleViewAction());
+  view->addAction(calibration_dock_->toggleViewAction());
+  view->addAction(history_dock->toggleViewAction());
   view->addAction(log_dock->toggleViewAction());
 
   QMenu* help = menuBar()->addMenu(tr("&Help"));
@@ -220,10 +246,14 @@ void MainWindow::createStatusBar() {
 void MainWindow::connectControllers() {
   connect(opener_, &SequenceOpener::opened, this, &MainWindow::onOpened);
   connect(opener_, &SequenceOpener::failed, this, &MainWindow::onOpenFailed);
+  connect(history_opener_, &HistoryOpener::opened, this, &MainWindow::onHistoryOpened);
+  connect(history_opener_, &HistoryOpener::failed, this, &MainWindow::onHistoryFailed);
 
   connect(playback_, &PlaybackController::frameChanged, loader_, &FrameLoader::request);
   connect(playback_, &PlaybackController::frameChanged, this, &MainWindow::onFrameChanged);
   connect(playback_, &PlaybackController::timeChanged, plot_, &AccelPlot::setCursorTime);
+  connect(playback_, &PlaybackController::timeChanged, calibration_plots_,
+          &CalibrationPlots::setCursorTime);
   connect(playback_, &PlaybackController::playingChanged, this, &MainWindow::onPlayingChanged);
   connect(playback_, &PlaybackController::speedChanged, this, [this](double speed) {
     const QSignalBlocker blocker(speed_box_);
@@ -243,6 +273,8 @@ void MainWindow::connectControllers() {
 
   connect(slider_, &QSlider::valueChanged, playback_, &PlaybackController::seekToIndex);
   connect(plot_, &AccelPlot::seekRequested, playback_, &PlaybackController::seekToTime);
+  connect(calibration_plots_, &CalibrationPlots::seekRequested, this, &MainWindow::seekToTime);
+  connect(history_table_, &HistoryTable::seekRequested, this, &MainWindow::seekToTime);
   connect(plot_, &AccelPlot::windowSecondsChanged, this, [this](double seconds) {
     const QSignalBlocker blocker(window_box_);
     window_box_->setValue(seconds);
@@ -310,6 +342,15 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
   statusBar()->clearMessage();
 
   loader_->setSequence(sequence_);
+  // The history's times are on the recording's clock: both count from its start.
+  calibration_plots_->setTimeOrigin(start_ns);
+  history_table_->setTimeOrigin(start_ns);
+  std::vector<std::pair<int64_t, CameraIntrinsics>> truth;
+  if (const std::vector<GroundTruthFrame>* frames = seq.ground_truth()) {
+    truth.reserve(frames->size());
+    for (const GroundTruthFrame& frame : *frames) truth.emplace_back(frame.t_ns, frame.intrinsics);
+  }
+  calibration_plots_->setGroundTruth(std::move(truth));
   video_->showMessage(tr("Loading frame \u2026"));
   plot_->setSamples(seq.accel(), start_ns, static_cast<double>(end_ns - start_ns) * 1e-9);
   {
@@ -346,6 +387,52 @@ void MainWindow::onOpenFailed(const QString& source, const QString& message) {
   box->setAttribute(Qt::WA_DeleteOnClose);
   box->open();
   emit openFailed(source, message);
+}
+
+void MainWindow::openHistory(const QString& path) {
+  log(tr("Opening history %1 \u2026").arg(path));
+  statusBar()->showMessage(tr("Opening history %1 \u2026").arg(path));
+  history_opener_->open(path);
+}
+
+void MainWindow::onHistoryOpened(const QString& path,
+                                 std::shared_ptr<const CalibrationSeries> series) {
+  statusBar()->clearMessage();
+  const StoredHistory& stored = series->stored;
+  log(tr("Opened history %1: %2 attempts, %3 alarms, %4 regimes")
+          .arg(path, QString::number(stored.attempts.size()), QString::number(stored.alarms.size()),
+               QString::number(stored.regimes.size())));
+  if (!series->differing.empty()) {
+    log(tr("Warning: judged again, %1 attempts get another verdict than the file records (a "
+           "file from another version?); the plots' trend is the replayed one")
+            .arg(series->differing.size()),
+        true);
+  }
+  calibration_plots_->setSeries(series);
+  history_table_->setSeries(std::move(series));
+  calibration_dock_->show();
+  calibration_dock_->raise();
+  emit historyOpened(path);
+}
+
+void MainWindow::onHistoryFailed(const QString& path, const QString& message) {
+  log(tr("Could not open history %1: %2").arg(path, message), true);
+  statusBar()->showMessage(tr("Could not open history: %1").arg(message), 30000);
+  auto* box = new QMessageBox(QMessageBox::Critical, tr("Could not open history"),
+                              tr("Could not open %1").arg(path), QMessageBox::Ok, this);
+  box->setInformativeText(message);
+  box->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  box->setAttribute(Qt::WA_DeleteOnClose);
+  box->open();
+  emit historyFailed(path, message);
+}
+
+void MainWindow::seekToTime(double seconds) {
+  if (playback_->frameCount() > 0) {
+    playback_->seekToTime(seconds);
+  } else {
+    calibration_plots_->setCursorTime(seconds);
+  }
 }
 
 void MainWindow::onFrameChanged(int index) {
@@ -393,6 +480,13 @@ void MainWindow::openSimulationDialog() {
   if (ok && !spec.trimmed().isEmpty()) open(QStringLiteral("sim:") + spec.trimmed());
 }
 
+void MainWindow::openHistoryDialog() {
+  const QString file = QFileDialog::getOpenFileName(
+      this, tr("Open Calibration History"), dialogStartDir(),
+      tr("Calibration histories (*.sqlite *.sqlite3 *.db);;All files (*)"));
+  if (!file.isEmpty()) openHistory(file);
+}
+
 void MainWindow::showAbout() {
   QMessageBox::about(this, tr("About autocal workbench"),
                      tr("<b>autocal workbench</b> %1<p>Keeps a camera and accelerometer rig "
@@ -431,7 +525,14 @@ void MainWindow::dragEnterEvent(QDragEnterEvent* event) {
 }
 
 void MainWindow::dropEvent(QDropEvent* event) {
-  open(event->mimeData()->urls().front().toLocalFile());
+  const QString path = event->mimeData()->urls().front().toLocalFile();
+  const QString suffix = QFileInfo(path).suffix().toLower();
+  if (suffix == QLatin1String("sqlite") || suffix == QLatin1String("sqlite3") ||
+      suffix == QLatin1String("db")) {
+    openHistory(path);
+  } else {
+    open(path);
+  }
   event->acceptProposedAction();
 }
 

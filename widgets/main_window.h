@@ -9,6 +9,7 @@
 
 class QAction;
 class QComboBox;
+class QDockWidget;
 class QDoubleSpinBox;
 class QLabel;
 class QPlainTextEdit;
@@ -18,7 +19,11 @@ class QToolButton;
 namespace autocal {
 
 class AccelPlot;
+class CalibrationPlots;
+struct CalibrationSeries;
 class FrameLoader;
+class HistoryOpener;
+class HistoryTable;
 class PlaybackController;
 class Sequence;
 class SequenceOpener;
@@ -37,6 +42,8 @@ class MainWindow : public QMainWindow {
   PlaybackController* playback() const { return playback_; }
   VideoView* videoView() const { return video_; }
   AccelPlot* accelPlot() const { return plot_; }
+  CalibrationPlots* calibrationPlots() const { return calibration_plots_; }
+  HistoryTable* historyTable() const { return history_table_; }
   // The open recording (null until one opened) and what it was opened from.
   const Sequence* sequence() const { return sequence_.get(); }
   const QString& source() const { return source_; }
@@ -45,10 +52,15 @@ class MainWindow : public QMainWindow {
   // Opens a folder, a video or "sim:SPEC" in the background, then plays it. On failure
   // the error is shown and logged, and the recording open before stays.
   void open(const QString& source);
+  // Opens a calibration history file (SQLite, as `autocal run` writes) in the background and
+  // shows it in the Calibration and History docks. On failure the history shown stays.
+  void openHistory(const QString& path);
 
  signals:
   void opened(const QString& source);
   void openFailed(const QString& source, const QString& message);
+  void historyOpened(const QString& path);
+  void historyFailed(const QString& path, const QString& message);
   // A decoded frame reached the screen.
   void frameShown(int index);
 
@@ -67,11 +79,16 @@ class MainWindow : public QMainWindow {
 
   void onOpened(const QString& source, std::shared_ptr<const Sequence> sequence);
   void onOpenFailed(const QString& source, const QString& message);
+  void onHistoryOpened(const QString& path, std::shared_ptr<const CalibrationSeries> series);
+  void onHistoryFailed(const QString& path, const QString& message);
+  // Plots and table go where the video would be at `seconds`, or there alone without video.
+  void seekToTime(double seconds);
   void onFrameChanged(int index);
   void onPlayingChanged(bool playing);
   void openFolderDialog();
   void openVideoDialog();
   void openSimulationDialog();
+  void openHistoryDialog();
   void showAbout();
   // The one logging path: the log dock and stderr.
   void log(const QString& message, bool is_error = false);
@@ -80,12 +97,16 @@ class MainWindow : public QMainWindow {
   PlaybackController* playback_;
   FrameLoader* loader_;
   SequenceOpener* opener_;
+  HistoryOpener* history_opener_;
   std::shared_ptr<const Sequence> sequence_;
   QString source_;
   QString last_path_;
 
   VideoView* video_ = nullptr;
   AccelPlot* plot_ = nullptr;
+  CalibrationPlots* calibration_plots_ = nullptr;
+  HistoryTable* history_table_ = nullptr;
+  QDockWidget* calibration_dock_ = nullptr;
   QPlainTextEdit* log_ = nullptr;
   QSlider* slider_ = nullptr;
   QLabel* position_label_ = nullptr;

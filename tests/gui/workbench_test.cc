@@ -503,11 +503,11 @@ void WorkbenchTest::settingsPersist() {
   {
     const auto window = OpenWindow(folder);
     QVERIFY(window);
-    auto* speed = window->findChild<QComboBox*>();
+    auto* speed = window->findChild<QComboBox*>(QStringLiteral("speed"));
     QVERIFY(speed);
     speed->setCurrentIndex(speed->findData(2.0));
     QCOMPARE(window->playback()->speed(), 2.0);
-    auto* plot_window = window->findChild<QDoubleSpinBox*>();
+    auto* plot_window = window->findChild<QDoubleSpinBox*>(QStringLiteral("plot_window"));
     QVERIFY(plot_window);
     plot_window->setValue(4.5);
     QCOMPARE(window->accelPlot()->windowSeconds(), 4.5);
@@ -520,8 +520,8 @@ void WorkbenchTest::settingsPersist() {
   QVERIFY(QTest::qWaitForWindowExposed(&window));
   QCOMPARE(window.playback()->speed(), 2.0);
   QCOMPARE(window.accelPlot()->windowSeconds(), 4.5);
-  QCOMPARE(window.findChild<QDoubleSpinBox*>()->value(), 4.5);
-  QCOMPARE(window.findChild<QComboBox*>()->currentData().toDouble(), 2.0);
+  QCOMPARE(window.findChild<QDoubleSpinBox*>(QStringLiteral("plot_window"))->value(), 4.5);
+  QCOMPARE(window.findChild<QComboBox*>(QStringLiteral("speed"))->currentData().toDouble(), 2.0);
   QCOMPARE(window.size(), QSize(1000, 700));
   QCOMPARE(QSettings().value(QStringLiteral("files/last_path")).toString(), folder);
 }

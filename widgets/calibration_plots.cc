@@ -1,0 +1,639 @@
+#include "widgets/calibration_plots.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include <QCheckBox>
+#include <QCursor>
+#include <QFileDialog>
+#include <QFileInfo>
+#include <QGraphicsLayout>
+#include <QGridLayout>
+#include <QHBoxLayout>
+#include <QLabel>
+#include <QMessageBox>
+#include <QMouseEvent>
+#include <QPainter>
+#include <QPixmap>
+#include <QPushButton>
+#include <QScrollArea>
+#include <QResizeEvent>
+#include <QSvgGenerator>
+#include <QToolTip>
+#include <QVBoxLayout>
+#include <QWheelEvent>
+#include <QtCharts/QLegend>
+
+#include "widgets/plot_decimation.h"
+#include "widgets/plot_ticks.h"
+
+namespace autocal {
+namespace {
+
+constexpr int kMarkerSize = 8;
+// A drag shorter than this (pixels) is a click: it seeks instead of panning.
+constexpr int kDragThreshold = 4;
+constexpr double kMinSpanSeconds = 0.05;
+constexpr int kMinChartHeight = 110;
+
+std::optional<MarkerClass> MarkerOf(Verdict verdict) {
+  switch (verdict) {
+    case Verdict::kAccepted:
+      return MarkerClass::kAccepted;
+    case Verdict::kRejected:
+      return MarkerClass::kRejected;
+    case Verdict::kAlarm:
+    case Verdict::kNewRegime:
+      return MarkerClass::kJump;
+    case Verdict::kNoUpdate:
+      break;
+  }
+  return std::nullopt;
+}
+
+QString ValueTitle(int channel) {
+  const QString name = ChannelName(channel);
+  return channel < kK1 || channel == kRmsChannel ? QStringLiteral("%1 (px)").arg(name) : name;
+}
+
+bool Estimated(const AttemptRecord& record, int channel) {
+  return channel == kRmsChannel ||
+         std::find(record.free_parameters.begin(), record.free_parameters.end(), channel) !=
+             record.free_parameters.end();
+}
+
+// A legend entry: a sample of the marker or line, then its name.
+QWidget* LegendEntry(const QString& text, const QColor& color, bool line, bool dashed = false,
+                     bool square = false) {
+  QPixmap icon(18, 12);
+  icon.fill(Qt::transparent);
+  QPainter painter(&icon);
+  painter.setRenderHint(QPainter::Antialiasing);
+  if (line) {
+    painter.setPen(QPen(color, 2.0, dashed ? Qt::DashLine : Qt::SolidLine));
+    painter.drawLine(0, 6, 18, 6);
+  } else {
+    painter.setPen(Qt::NoPen);
+    painter.setBrush(color);
+    if (square) {
+      painter.drawRect(5, 2, kMarkerSize, kMarkerSize);
+    } else {
+      painter.drawEllipse(5, 2, kMarkerSize, kMarkerSize);
+    }
+  }
+  painter.end();
+  auto* entry = new QWidget;
+  auto* layout = new QHBoxLayout(entry);
+  layout->setContentsMargins(0, 0, 8, 0);
+  layout->setSpacing(3);
+  auto* sample = new QLabel;
+  sample->setPixmap(icon);
+  layout->addWidget(sample);
+  layout->addWidget(new QLabel(text));
+  return entry;
+}
+
+// Smallest and largest value of `points` whose time is in [t0, t1].
+void ExtendRange(const QVector<QPointF>& points, double t0, double t1, double* lo, double* hi) {
+  for (const QPointF& p : points) {
+    if (p.x() < t0 || p.x() > t1) continue;
+    *lo = std::min(*lo, p.y());
+    *hi = std::max(*hi, p.y());
+  }
+}
+
+// Sets a range and its tick interval without passing through a state with a great many
+// ticks (a wide range with a fine interval), which Qt Charts would lay out one by one.
+void SetAxis(QValueAxis* axis, double min, double max, double tick) {
+  axis->setTickInterval(std::max(axis->tickInterval(), tick));
+  axis->setRange(min, max);
+  axis->setTickInterval(tick);
+  axis->setLabelFormat(LabelFormat(tick));
+}
+
+}  // namespace
+
+QColor MarkerColor(MarkerClass marker) {
+  switch (marker) {
+    case MarkerClass::kAccepted:
+      return {44, 160, 44};
+    case MarkerClass::kRejected:
+      return {214, 39, 40};
+    case MarkerClass::kJump:
+      return {255, 127, 14};
+  }
+  return {};
+}
+
+QColor TrendColor() { return {31, 119, 180}; }
+QColor TruthColor() { return {120, 120, 120}; }
+QColor AlarmColor() { return {148, 103, 189}; }
+
+CalibrationChart::CalibrationChart(int channel, QWidget* parent)
+    : QChartView(parent), channel_(channel) {
+  auto* chart = new QChart;
+  chart->layout()->setContentsMargins(0, 0, 0, 0);
+  chart->setMargins(QMargins(2, 4, 6, 2));
+  chart->setBackgroundRoundness(0);
+  chart->legend()->hide();
+
+  time_axis_ = new QValueAxis;
+  // The interval must be set before the type: an interval of 0 would mean endless ticks.
+  time_axis_->setTickInterval(1.0);
+  time_axis_->setTickAnchor(0.0);
+  time_axis_->setTickType(QValueAxis::TicksDynamic);
+  value_axis_ = new QValueAxis;
+  value_axis_->setTitleText(ValueTitle(channel));
+  value_axis_->setTickInterval(1.0);
+  value_axis_->setTickType(QValueAxis::TicksDynamic);
+  chart->addAxis(time_axis_, Qt::AlignBottom);
+  chart->addAxis(value_axis_, Qt::AlignLeft);
+
+  auto add = [&](QAbstractSeries* series) {
+    chart->addSeries(series);
+    series->attachAxis(time_axis_);
+    series->attachAxis(value_axis_);
+  };
+  // Added in drawing order: lines under the markers, the cursor on top.
+  truth_ = new QLineSeries;
+  truth_->setPen(QPen(TruthColor(), 2.0, Qt::DashLine));
+  add(truth_);
+  trend_ = new QLineSeries;
+  trend_->setPen(QPen(TrendColor(), 2.0));
+  add(trend_);
+  for (int m = 0; m < kNumMarkerClasses; ++m) {
+    const auto marker = static_cast<MarkerClass>(m);
+    auto* series = new QScatterSeries;
+    series->setMarkerShape(marker == MarkerClass::kAccepted ? QScatterSeries::MarkerShapeCircle
+                                                            : QScatterSeries::MarkerShapeRectangle);
+    series->setMarkerSize(kMarkerSize);
+    series->setColor(MarkerColor(marker));
+    series->setBorderColor(MarkerColor(marker));
+    markers_[m] = series;
+    add(series);
+  }
+  cursor_ = new QLineSeries;
+  cursor_->setPen(QPen(QColor(20, 20, 20), 1.5));
+  add(cursor_);
+
+  setChart(chart);
+  setRenderHint(QPainter::Antialiasing);
+  setMinimumSize(200, kMinChartHeight);
+  setCursor(Qt::CrossCursor);
+}
+
+QPoint CalibrationChart::positionOf(double t_s, double value) const {
+  const QPointF in_chart = chart()->mapToPosition(QPointF(t_s, value), trend_);
+  return mapFromScene(chart()->mapToScene(in_chart));
+}
+
+double CalibrationChart::timeAt(const QPoint& pos) const {
+  return chart()->mapToValue(chart()->mapFromScene(mapToScene(pos)), trend_).x();
+}
+
+void CalibrationChart::setAlarmCount(int count) {
+  QChart* c = chart();
+  for (QLineSeries* alarm : alarms_) {
+    c->removeSeries(alarm);
+    delete alarm;
+  }
+  alarms_.clear();
+  if (count == 0) return;
+  // The alarm lines go under the markers and the cursor, which are taken off and put back.
+  std::vector<QAbstractSeries*> on_top(markers_.begin(), markers_.end());
+  on_top.push_back(cursor_);
+  for (QAbstractSeries* series : on_top) c->removeSeries(series);
+  for (int i = 0; i < count; ++i) {
+    auto* alarm = new QLineSeries;
+    alarm->setPen(QPen(AlarmColor(), 1.5, Qt::DashLine));
+    alarms_.push_back(alarm);
+    on_top.insert(on_top.begin() + i, alarm);
+  }
+  for (QAbstractSeries* series : on_top) {
+    c->addSeries(series);
+    series->attachAxis(time_axis_);
+    series->attachAxis(value_axis_);
+  }
+}
+
+void CalibrationChart::mousePressEvent(QMouseEvent* event) {
+  if (event->button() != Qt::LeftButton) {
+    QChartView::mousePressEvent(event);
+    return;
+  }
+  press_pos_ = last_pos_ = event->pos();
+  dragging_ = false;
+  event->accept();
+}
+
+void CalibrationChart::mouseMoveEvent(QMouseEvent* event) {
+  if (!(event->buttons() & Qt::LeftButton)) {
+    QChartView::mouseMoveEvent(event);  // Hover, for the markers' tooltips.
+    return;
+  }
+  if (!dragging_ && (event->pos() - press_pos_).manhattanLength() < kDragThreshold) return;
+  dragging_ = true;
+  setCursor(Qt::ClosedHandCursor);
+  emit panRequested(timeAt(last_pos_) - timeAt(event->pos()));
+  last_pos_ = event->pos();
+  event->accept();
+}
+
+void CalibrationChart::mouseReleaseEvent(QMouseEvent* event) {
+  if (event->button() != Qt::LeftButton) {
+    QChartView::mouseReleaseEvent(event);
+    return;
+  }
+  if (!dragging_) emit seekRequested(timeAt(event->pos()));
+  dragging_ = false;
+  setCursor(Qt::CrossCursor);
+  event->accept();
+}
+
+void CalibrationChart::resizeEvent(QResizeEvent* event) {
+  QChartView::resizeEvent(event);
+  emit resized();
+}
+
+void CalibrationChart::mouseDoubleClickEvent(QMouseEvent* event) {
+  emit resetRequested();
+  event->accept();
+}
+
+void CalibrationChart::wheelEvent(QWheelEvent* event) {
+  const int steps = event->angleDelta().y() / 120;
+  if (steps != 0) {
+    emit zoomRequested(timeAt(event->position().toPoint()), std::pow(1.25, -steps));
+  }
+  event->accept();
+}
+
+CalibrationPlots::CalibrationPlots(QWidget* parent) : QWidget(parent) {
+  grid_ = new QWidget;
+  // Exports show the charts on white, whatever the window's palette.
+  grid_->setAutoFillBackground(true);
+  QPalette white = grid_->palette();
+  white.setColor(QPalette::Window, Qt::white);
+  white.setColor(QPalette::WindowText, Qt::black);
+  grid_->setPalette(white);
+  auto* grid = new QGridLayout(grid_);
+  grid->setContentsMargins(4, 4, 4, 4);
+  grid->setSpacing(2);
+
+  title_ = new QLabel(tr("No calibration history open (File \u203a Open History\u2026)"));
+  auto* legend = new QHBoxLayout;
+  legend->setSpacing(0);
+  legend->addWidget(title_);
+  legend->addStretch(1);
+  legend->addWidget(LegendEntry(tr("accepted"), MarkerColor(MarkerClass::kAccepted), false));
+  legend->addWidget(
+      LegendEntry(tr("rejected"), MarkerColor(MarkerClass::kRejected), false, false, true));
+  legend->addWidget(
+      LegendEntry(tr("alarm / new regime"), MarkerColor(MarkerClass::kJump), false, false, true));
+  legend->addWidget(LegendEntry(tr("filtered (trend)"), TrendColor(), true));
+  legend->addWidget(LegendEntry(tr("ground truth"), TruthColor(), true, true));
+  legend->addWidget(LegendEntry(tr("alarm"), AlarmColor(), true, true));
+  grid->addLayout(legend, 0, 0, 1, 2);
+
+  for (int channel = 0; channel < kNumCalibrationChannels; ++channel) {
+    auto* chart = new CalibrationChart(channel);
+    charts_[channel] = chart;
+    grid->addWidget(chart, 1 + channel / 2, channel % 2);
+    grid->setRowStretch(1 + channel / 2, 1);
+    connect(chart, &CalibrationChart::zoomRequested, this, &CalibrationPlots::zoom);
+    connect(chart, &CalibrationChart::panRequested, this, &CalibrationPlots::pan);
+    connect(chart, &CalibrationChart::seekRequested, this, &CalibrationPlots::seekRequested);
+    connect(chart, &CalibrationChart::resetRequested, this, &CalibrationPlots::resetZoom);
+    connect(chart, &CalibrationChart::resized, this, &CalibrationPlots::scheduleRedraw);
+    for (int m = 0; m < kNumMarkerClasses; ++m) {
+      const auto marker = static_cast<MarkerClass>(m);
+      connect(chart->markers(marker), &QScatterSeries::hovered, this,
+              [this, channel, marker](const QPointF& point, bool state) {
+                showTooltip(channel, marker, point, state);
+              });
+    }
+  }
+  // The time axis is named under the bottom row only, to leave the rest to the curves.
+  for (int channel = kNumCalibrationChannels - 2; channel < kNumCalibrationChannels; ++channel) {
+    charts_[channel]->timeAxis()->setTitleText(tr("Time since start (s)"));
+  }
+
+  show_rejected_ = new QCheckBox(tr("Show rejected"));
+  show_rejected_->setChecked(true);
+  show_rejected_->setToolTip(
+      tr("Rejected attempts can lie far off; hide them to scale the charts to the rest"));
+  connect(show_rejected_, &QCheckBox::toggled, this, &CalibrationPlots::setShowRejected);
+  auto* fit = new QPushButton(tr("Fit"));
+  fit->setToolTip(tr("Show the whole history (or double-click a chart)"));
+  connect(fit, &QPushButton::clicked, this, &CalibrationPlots::resetZoom);
+  auto* export_button = new QPushButton(tr("Export\u2026"));
+  export_button->setToolTip(tr("Save the charts as PNG or SVG"));
+  connect(export_button, &QPushButton::clicked, this, &CalibrationPlots::exportDialog);
+  auto* hint = new QLabel(tr("Wheel: zoom \u00b7 drag: pan \u00b7 click: go to time"));
+  hint->setEnabled(false);
+
+  auto* controls = new QHBoxLayout;
+  controls->setContentsMargins(6, 2, 6, 2);
+  controls->addWidget(hint);
+  controls->addStretch(1);
+  controls->addWidget(show_rejected_);
+  controls->addWidget(fit);
+  controls->addWidget(export_button);
+
+  // The charts keep a readable size and scroll when the dock is small, so that the video
+  // keeps its room.
+  grid_->setMinimumHeight(5 * kMinChartHeight + 30);
+  auto* scroll = new QScrollArea;
+  scroll->setWidget(grid_);
+  scroll->setWidgetResizable(true);
+  scroll->setFrameShape(QFrame::NoFrame);
+
+  auto* layout = new QVBoxLayout(this);
+  layout->setContentsMargins(0, 0, 0, 0);
+  layout->setSpacing(0);
+  layout->addLayout(controls);
+  layout->addWidget(scroll, 1);
+
+  redraw_timer_.setSingleShot(true);
+  redraw_timer_.setInterval(0);
+  connect(&redraw_timer_, &QTimer::timeout, this, &CalibrationPlots::redraw);
+  redraw();
+}
+
+QSize CalibrationPlots::sizeHint() const { return {900, 300}; }
+
+void CalibrationPlots::setSeries(std::shared_ptr<const CalibrationSeries> series) {
+  series_ = std::move(series);
+  rebuild();
+}
+
+void CalibrationPlots::setTimeOrigin(int64_t origin_ns) {
+  origin_ns_ = origin_ns;
+  origin_set_ = true;
+  rebuild();
+}
+
+void CalibrationPlots::setGroundTruth(std::vector<std::pair<int64_t, CameraIntrinsics>> truth) {
+  truth_ = std::move(truth);
+  rebuild();
+}
+
+bool CalibrationPlots::showsRejected() const { return show_rejected_->isChecked(); }
+
+double CalibrationPlots::toSeconds(int64_t t_ns) const {
+  return static_cast<double>(t_ns - origin_ns_) * 1e-9;
+}
+
+void CalibrationPlots::rebuild() {
+  const std::vector<AttemptRecord> none;
+  const std::vector<AttemptRecord>& attempts = series_ ? series_->stored.attempts : none;
+  if (!origin_set_) origin_ns_ = attempts.empty() ? 0 : attempts.front().t_ns;
+
+  for (auto& channel : points_) {
+    for (Points& p : channel) p = {};
+  }
+  for (const AttemptRecord& record : attempts) {
+    const std::optional<MarkerClass> marker = MarkerOf(record.verdict);
+    if (!marker) continue;
+    for (int channel = 0; channel < kNumCalibrationChannels; ++channel) {
+      const double value = ChannelValue(record, channel);
+      // A parameter the attempt held at its prior tells nothing: only estimates are marked.
+      if (!std::isfinite(value) || !Estimated(record, channel)) continue;
+      Points& p = points_[channel][static_cast<int>(*marker)];
+      p.t.push_back(toSeconds(record.t_ns));
+      p.v.push_back(value);
+      p.id.push_back(record.id);
+    }
+  }
+  for (int channel = 0; channel < kNumIntrinsics; ++channel) {
+    trend_[channel] = {};
+    truth_lines_[channel] = {};
+    if (series_) {
+      for (const TrendSample& sample : series_->trend) {
+        trend_[channel].t.push_back(toSeconds(sample.t_ns));
+        trend_[channel].v.push_back(sample.value[channel]);
+      }
+    }
+    for (const auto& [t_ns, intrinsics] : truth_) {
+      truth_lines_[channel].t.push_back(toSeconds(t_ns));
+      truth_lines_[channel].v.push_back(intrinsics.Packed()[channel]);
+    }
+  }
+  alarm_t_.clear();
+  if (series_) {
+    for (const Alarm& alarm : series_->stored.alarms) alarm_t_.push_back(toSeconds(alarm.t_ns));
+  }
+  for (CalibrationChart* chart : charts_) chart->setAlarmCount(static_cast<int>(alarm_t_.size()));
+
+  if (series_) {
+    const StoredHistory& stored = series_->stored;
+    auto count = [&](Verdict verdict) {
+      return std::count_if(stored.attempts.begin(), stored.attempts.end(),
+                           [verdict](const AttemptRecord& r) { return r.verdict == verdict; });
+    };
+    title_->setText(
+        tr("<b>%1</b>: attempts %2, accepted %3, rejected %4, alarms %5; RMS limit %6 px")
+            .arg(QFileInfo(QString::fromStdString(series_->path)).fileName().toHtmlEscaped())
+            .arg(stored.attempts.size())
+            .arg(count(Verdict::kAccepted))
+            .arg(count(Verdict::kRejected))
+            .arg(stored.alarms.size())
+            .arg(stored.options.max_rms_px, 0, 'f', 2));
+  }
+  resetZoom();
+}
+
+std::pair<double, double> CalibrationPlots::fullRange() const {
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -lo;
+  auto extend = [&](const std::vector<double>& t) {
+    if (t.empty()) return;
+    lo = std::min(lo, t.front());
+    hi = std::max(hi, t.back());
+  };
+  for (const auto& channel : points_) {
+    for (const Points& p : channel) extend(p.t);
+  }
+  extend(trend_[0].t);
+  extend(truth_lines_[0].t);
+  extend(alarm_t_);
+  if (!(lo <= hi)) return {0.0, 1.0};
+  // Room for the markers at the ends, which would be cut in half at the edge.
+  const double pad = std::max(0.02 * (hi - lo), 0.5);
+  return {lo - pad, hi + pad};
+}
+
+void CalibrationPlots::resetZoom() {
+  const auto [t0, t1] = fullRange();
+  setVisibleRange(t0, t1);
+}
+
+void CalibrationPlots::setVisibleRange(double t0_s, double t1_s) {
+  if (!(t1_s - t0_s >= kMinSpanSeconds)) {
+    const double middle = 0.5 * (t0_s + t1_s);
+    t0_s = middle - 0.5 * kMinSpanSeconds;
+    t1_s = middle + 0.5 * kMinSpanSeconds;
+  }
+  if (t0_s == t0_ && t1_s == t1_) return;
+  t0_ = t0_s;
+  t1_ = t1_s;
+  scheduleRedraw();
+  emit visibleRangeChanged(t0_, t1_);
+}
+
+void CalibrationPlots::setCursorTime(double seconds) {
+  cursor_s_ = seconds;
+  scheduleRedraw();
+}
+
+void CalibrationPlots::setShowRejected(bool show) {
+  show_rejected_->setChecked(show);
+  scheduleRedraw();
+}
+
+void CalibrationPlots::zoom(double t_s, double factor) {
+  setVisibleRange(t_s - (t_s - t0_) * factor, t_s + (t1_ - t_s) * factor);
+}
+
+void CalibrationPlots::pan(double dt_s) { setVisibleRange(t0_ + dt_s, t1_ + dt_s); }
+
+int CalibrationPlots::attemptAt(int channel, MarkerClass marker, const QPointF& point) const {
+  // Drawn points are copies of the stored ones, so they compare equal.
+  const Points& p = points_[channel][static_cast<int>(marker)];
+  for (auto it = std::lower_bound(p.t.begin(), p.t.end(), point.x());
+       it != p.t.end() && *it == point.x(); ++it) {
+    const size_t i = static_cast<size_t>(it - p.t.begin());
+    if (p.v[i] == point.y()) return p.id[i];
+  }
+  return -1;
+}
+
+QString CalibrationPlots::describeAttempt(int id, int channel) const {
+  if (!series_ || id < 0 || id >= static_cast<int>(series_->stored.attempts.size())) return {};
+  const AttemptRecord& record = series_->stored.attempts[static_cast<size_t>(id)];
+  return tr("attempt %1 at %2 s: %3\n%4 = %5\n%6")
+      .arg(record.id)
+      .arg(toSeconds(record.t_ns), 0, 'f', 3)
+      .arg(QString::fromStdString(VerdictName(record.verdict)), ChannelName(channel))
+      .arg(ChannelValue(record, channel), 0, 'g', 8)
+      .arg(QString::fromStdString(record.reason));
+}
+
+void CalibrationPlots::showTooltip(int channel, MarkerClass marker, const QPointF& point,
+                                   bool state) {
+  if (!state) {
+    QToolTip::hideText();
+    return;
+  }
+  const QString text = describeAttempt(attemptAt(channel, marker, point), channel);
+  if (!text.isEmpty()) QToolTip::showText(QCursor::pos(), text, charts_[channel]);
+}
+
+bool CalibrationPlots::exportImage(const QString& path, QString* error) {
+  redrawNow();
+  const QString suffix = QFileInfo(path).suffix().toLower();
+  if (suffix == QLatin1String("png")) {
+    if (grid_->grab().toImage().save(path, "PNG")) return true;
+    *error = tr("cannot write %1").arg(path);
+    return false;
+  }
+  if (suffix == QLatin1String("svg")) {
+    QSvgGenerator svg;
+    svg.setFileName(path);
+    svg.setSize(grid_->size());
+    svg.setViewBox(QRect(QPoint(0, 0), grid_->size()));
+    svg.setTitle(tr("autocal calibration history"));
+    QPainter painter;
+    if (!painter.begin(&svg)) {
+      *error = tr("cannot write %1").arg(path);
+      return false;
+    }
+    grid_->render(&painter);
+    painter.end();
+    return true;
+  }
+  *error = tr("%1: unknown image type '%2' (use .png or .svg)").arg(path, suffix);
+  return false;
+}
+
+void CalibrationPlots::exportDialog() {
+  QString filter;
+  QString path = QFileDialog::getSaveFileName(
+      this, tr("Export Calibration Plots"), QStringLiteral("calibration.png"),
+      tr("PNG image (*.png);;SVG drawing (*.svg)"), &filter);
+  if (path.isEmpty()) return;
+  if (QFileInfo(path).suffix().isEmpty()) {
+    path += filter.contains(QLatin1String("svg")) ? QLatin1String(".svg") : QLatin1String(".png");
+  }
+  QString error;
+  if (!exportImage(path, &error)) QMessageBox::warning(this, tr("Export failed"), error);
+}
+
+void CalibrationPlots::scheduleRedraw() {
+  if (!redraw_timer_.isActive()) redraw_timer_.start();
+}
+
+void CalibrationPlots::redrawNow() {
+  redraw_timer_.stop();
+  redraw();
+}
+
+void CalibrationPlots::redraw() {
+  const double time_tick = NiceTickInterval(t1_ - t0_, 8);
+  for (int channel = 0; channel < kNumCalibrationChannels; ++channel) {
+    CalibrationChart& chart = *charts_[channel];
+    SetAxis(chart.timeAxis(), t0_, t1_, time_tick);
+
+    // Each pixel column keeps its extremes, so hours of history cost a few thousand points.
+    const int columns = std::max(1, static_cast<int>(chart.chart()->plotArea().width()));
+    auto decimate = [&](const std::vector<double>& t, const std::vector<double>& v) {
+      return DecimateMinMax(t, v, VisibleRange(t, t0_, t1_), columns);
+    };
+    double lo = std::numeric_limits<double>::infinity();
+    double hi = -lo;
+    for (int m = 0; m < kNumMarkerClasses; ++m) {
+      const Points& p = points_[channel][m];
+      const bool shown = showsRejected() || static_cast<MarkerClass>(m) != MarkerClass::kRejected;
+      const QVector<QPointF> points = shown ? decimate(p.t, p.v) : QVector<QPointF>();
+      ExtendRange(points, t0_, t1_, &lo, &hi);
+      chart.markers(static_cast<MarkerClass>(m))->replace(points);
+    }
+    const QVector<QPointF> trend = decimate(trend_[channel].t, trend_[channel].v);
+    const QVector<QPointF> truth = decimate(truth_lines_[channel].t, truth_lines_[channel].v);
+    ExtendRange(trend, t0_, t1_, &lo, &hi);
+    ExtendRange(truth, t0_, t1_, &lo, &hi);
+    chart.trend()->replace(trend);
+    chart.truth()->replace(truth);
+
+    if (!(lo <= hi)) {
+      lo = -1.0;
+      hi = 1.0;
+    }
+    // A flat series (a parameter held fixed, up to rounding) is shown flat in the middle of
+    // a readable range: ticks finer than the values' rounding would never end.
+    if (hi - lo <= 1e-6 * std::max(std::abs(lo), std::abs(hi)) + 1e-12) {
+      const double middle = 0.5 * (lo + hi);
+      const double half = std::max(0.01 * std::abs(middle), 1e-3);
+      lo = middle - half;
+      hi = middle + half;
+    } else {
+      const double pad = 0.08 * (hi - lo);
+      lo -= pad;
+      hi += pad;
+    }
+    // Labels about 35 px apart: Qt Charts elides them all when they crowd.
+    const int ticks = std::clamp(static_cast<int>(chart.chart()->plotArea().height()) / 35, 2, 5);
+    const double value_tick = NiceTickInterval(hi - lo, ticks);
+    chart.valueAxis()->setTickAnchor(std::floor(lo / value_tick) * value_tick);
+    SetAxis(chart.valueAxis(), lo, hi, value_tick);
+
+    for (size_t i = 0; i < alarm_t_.size(); ++i) {
+      chart.alarms()[i]->replace(QVector<QPointF>{{alarm_t_[i], lo}, {alarm_t_[i], hi}});
+    }
+    chart.cursor()->replace(QVector<QPointF>{{cursor_s_, lo}, {cursor_s_, hi}});
+  }
+}
+
+}  // namespace autocal

@@ -1,0 +1,188 @@
+// The calibration over time: one chart per intrinsic and one for the reprojection error,
+// each with the attempts (accepted, rejected, off the trend) as markers, the filtered
+// calibration (the trend) as a line, alarms as vertical lines and, when given, the ground
+// truth. All charts share one time range (zoom, pan) and one time cursor.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include <QTimer>
+#include <QWidget>
+#include <QtCharts/QChartView>
+#include <QtCharts/QLineSeries>
+#include <QtCharts/QScatterSeries>
+#include <QtCharts/QValueAxis>
+
+#include "pipeline/camera_model.h"
+#include "widgets/calibration_series.h"
+
+class QCheckBox;
+class QLabel;
+
+namespace autocal {
+
+#if QT_VERSION < QT_VERSION_CHECK(6, 0, 0)
+// Qt 5 keeps Qt Charts in a namespace of its own; Qt 6 does not.
+using QtCharts::QAbstractSeries;
+using QtCharts::QChart;
+using QtCharts::QChartView;
+using QtCharts::QLineSeries;
+using QtCharts::QScatterSeries;
+using QtCharts::QValueAxis;
+#endif
+
+// How an attempt is marked: accepted, rejected, or off the trend in a way that raised an
+// alarm or started a new regime. "No update" attempts have no estimate to draw.
+enum class MarkerClass { kAccepted, kRejected, kJump };
+inline constexpr int kNumMarkerClasses = 3;
+
+// Marker and line colours, shared with the legend and the tests.
+QColor MarkerColor(MarkerClass marker);
+QColor TrendColor();
+QColor TruthColor();
+QColor AlarmColor();
+
+// One channel's chart. Mouse input is turned into requests in time; CalibrationPlots
+// carries them out for every chart at once.
+class CalibrationChart : public QChartView {
+  Q_OBJECT
+
+ public:
+  CalibrationChart(int channel, QWidget* parent = nullptr);
+
+  int channel() const { return channel_; }
+  QScatterSeries* markers(MarkerClass marker) const { return markers_[static_cast<int>(marker)]; }
+  QLineSeries* trend() const { return trend_; }
+  QLineSeries* truth() const { return truth_; }
+  QLineSeries* cursor() const { return cursor_; }
+  QValueAxis* timeAxis() const { return time_axis_; }
+  QValueAxis* valueAxis() const { return value_axis_; }
+  // Alarm lines, one series each.
+  const std::vector<QLineSeries*>& alarms() const { return alarms_; }
+  // Where (time, value) is drawn, in this view's pixels.
+  QPoint positionOf(double t_s, double value) const;
+
+ signals:
+  void zoomRequested(double t_s, double factor);  // Around t_s; factor < 1 zooms in.
+  void panRequested(double dt_s);
+  void seekRequested(double t_s);
+  void resetRequested();
+  // The plot area changed size: the decimation depends on its width.
+  void resized();
+
+ protected:
+  void resizeEvent(QResizeEvent* event) override;
+  void mousePressEvent(QMouseEvent* event) override;
+  void mouseMoveEvent(QMouseEvent* event) override;
+  void mouseReleaseEvent(QMouseEvent* event) override;
+  void mouseDoubleClickEvent(QMouseEvent* event) override;
+  void wheelEvent(QWheelEvent* event) override;
+
+ private:
+  friend class CalibrationPlots;
+
+  double timeAt(const QPoint& pos) const;
+  void setAlarmCount(int count);
+
+  int channel_;
+  QValueAxis* time_axis_;
+  QValueAxis* value_axis_;
+  std::array<QScatterSeries*, kNumMarkerClasses> markers_;
+  QLineSeries* trend_;
+  QLineSeries* truth_;
+  QLineSeries* cursor_;
+  std::vector<QLineSeries*> alarms_;
+  QPoint press_pos_, last_pos_;  // Where the left button went down, and was last seen.
+  bool dragging_ = false;        // Moved far enough since the press to be a pan.
+};
+
+class CalibrationPlots : public QWidget {
+  Q_OBJECT
+
+ public:
+  explicit CalibrationPlots(QWidget* parent = nullptr);
+
+  // Shows `series` (null: nothing) over its whole time span.
+  void setSeries(std::shared_ptr<const CalibrationSeries> series);
+  const CalibrationSeries* series() const { return series_.get(); }
+  // Times are drawn in seconds since `origin_ns` (the recording's start, so that the cursor
+  // matches the video's; without a recording, the first attempt).
+  void setTimeOrigin(int64_t origin_ns);
+  int64_t timeOrigin() const { return origin_ns_; }
+  // The true intrinsics over time, drawn as a line; empty: none.
+  void setGroundTruth(std::vector<std::pair<int64_t, CameraIntrinsics>> truth);
+
+  QSize sizeHint() const override;
+  CalibrationChart* chart(int channel) const { return charts_[channel]; }
+  double visibleStart() const { return t0_; }
+  double visibleEnd() const { return t1_; }
+  double cursorTime() const { return cursor_s_; }
+  bool showsRejected() const;
+  // The tooltip text for an attempt: time, verdict, reason, value.
+  QString describeAttempt(int id, int channel) const;
+  // The attempt drawn at `point` (time, value) of `marker` in `channel`; -1 when none.
+  int attemptAt(int channel, MarkerClass marker, const QPointF& point) const;
+
+  // Saves the charts and the legend as PNG or SVG, by the file's suffix. On failure returns
+  // false with the reason in `error`.
+  bool exportImage(const QString& path, QString* error);
+
+  // Redraws now instead of at the next turn of the event loop.
+  void redrawNow();
+
+ public slots:
+  void setCursorTime(double seconds);
+  void setVisibleRange(double t0_s, double t1_s);
+  // The whole history (and the cursor) in view.
+  void resetZoom();
+  void setShowRejected(bool show);
+
+ signals:
+  void seekRequested(double seconds);
+  void visibleRangeChanged(double t0_s, double t1_s);
+
+ private:
+  // Per channel and marker class: the attempts' times (s since the origin) and values, and
+  // their ids for tooltips, in time order.
+  struct Points {
+    std::vector<double> t, v;
+    std::vector<int> id;
+  };
+  struct Line {
+    std::vector<double> t, v;
+  };
+
+  void rebuild();
+  void exportDialog();
+  void zoom(double t_s, double factor);
+  void pan(double dt_s);
+  void showTooltip(int channel, MarkerClass marker, const QPointF& point, bool state);
+  void scheduleRedraw();
+  void redraw();
+  double toSeconds(int64_t t_ns) const;
+  // The time span of everything there is to draw.
+  std::pair<double, double> fullRange() const;
+
+  std::shared_ptr<const CalibrationSeries> series_;
+  std::vector<std::pair<int64_t, CameraIntrinsics>> truth_;
+  int64_t origin_ns_ = 0;
+  bool origin_set_ = false;
+  std::array<std::array<Points, kNumMarkerClasses>, kNumCalibrationChannels> points_;
+  std::array<Line, kNumCalibrationChannels> trend_;
+  std::array<Line, kNumCalibrationChannels> truth_lines_;
+  std::vector<double> alarm_t_;
+  double t0_ = 0.0, t1_ = 1.0;
+  double cursor_s_ = 0.0;
+
+  QWidget* grid_;
+  QLabel* title_;
+  QCheckBox* show_rejected_;
+  std::array<CalibrationChart*, kNumCalibrationChannels> charts_;
+  QTimer redraw_timer_;
+};
+
+}  // namespace autocal
