@@ -101,10 +101,10 @@ int Record(const QStringList& arguments) {
     std::signal(SIGTERM, RequestStop);
     const bool tty = isatty(STDERR_FILENO);
     size_t events_shown = 0;
-    const RecorderProgress result =
-        autocal::Record(*source, out, options,
-                        [&](const RecorderProgress& p) { PrintProgress(p, live, tty, &events_shown); },
-                        &g_stop_requested);
+    const RecorderProgress result = autocal::Record(
+        *source, out, options,
+        [&](const RecorderProgress& p) { PrintProgress(p, live, tty, &events_shown); },
+        &g_stop_requested);
     if (tty) std::fprintf(stderr, "\n");
     std::printf("recorded %llu frames and %llu accelerometer samples over %.2f s from %s to %s\n",
                 static_cast<unsigned long long>(result.frames_written),
@@ -115,10 +115,11 @@ int Record(const QStringList& arguments) {
     }
     const unsigned long long dropped = result.frames_dropped + result.source.frames_dropped;
     if (dropped > 0 || result.source.accel_dropped > 0 || result.items_refused > 0) {
-      std::printf("lost: %llu frames and %llu samples dropped (consumer too slow), %llu items "
-                  "refused (time not increasing)\n",
-                  dropped, static_cast<unsigned long long>(result.source.accel_dropped),
-                  static_cast<unsigned long long>(result.items_refused));
+      std::printf(
+          "lost: %llu frames and %llu samples dropped (consumer too slow), %llu items "
+          "refused (time not increasing)\n",
+          dropped, static_cast<unsigned long long>(result.source.accel_dropped),
+          static_cast<unsigned long long>(result.items_refused));
     }
     if (result.frames_written == 0) return Fail(name, "no frame was recorded");
     return 0;

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <condition_variable>
+#include <cstdlib>
 #include <deque>
 #include <filesystem>
 #include <mutex>
@@ -220,11 +221,14 @@ void LiveCamera::Impl::Start() {
                 ": permission denied (add the user to the video group)");
   }
   if (IsV4l2Node(options_.device)) {
+    // OpenCV waits up to this many seconds (default 10) for a frame of a stalled camera
+    // before the grab fails; it reads the setting once, at its first V4L2 wait. A user's
+    // own setting is kept.
+    setenv("OPENCV_VIDEOIO_V4L_SELECT_TIMEOUT", "2", /*overwrite=*/0);
     const VideoDeviceInfo info = QueryVideoDevice(options_.device);
     if (!info.error.empty()) throw Error("cannot open " + options_.device + ": " + info.error);
     if (!info.can_capture) {
-      throw Error(options_.device + " (" + info.card +
-                  ") is not a video capture node; found: " +
+      throw Error(options_.device + " (" + info.card + ") is not a video capture node; found: " +
                   SummarizeVideoDevices(ListVideoDevices()));
     }
     std::lock_guard lock(state_mutex_);

@@ -55,9 +55,9 @@ struct CameraEvent {
 
 struct LiveCameraStats {
   bool connected = false;
-  uint64_t frames = 0;          // Frames captured.
-  uint64_t queue_dropped = 0;   // Frames dropped, oldest first, because nobody took them.
-  int connections = 0;          // 1 + reconnections.
+  uint64_t frames = 0;         // Frames captured.
+  uint64_t queue_dropped = 0;  // Frames dropped, oldest first, because nobody took them.
+  int connections = 0;         // 1 + reconnections.
   int disconnections = 0;
   uint64_t reconnect_attempts = 0;  // Failed attempts to reopen a lost camera.
   // Each loss of the camera: last frame before it to first frame after it.

@@ -209,8 +209,8 @@ class WriterThread {
       events_ << "#timestamp [ns],device,event,message\n";
     }
     events_ << event.t_ns << ','
-            << (event.device == SourceEvent::Device::kCamera ? "camera" : "accelerometer")
-            << ',' << EventKindName(event.kind) << ',' << CsvField(event.message) << '\n';
+            << (event.device == SourceEvent::Device::kCamera ? "camera" : "accelerometer") << ','
+            << EventKindName(event.kind) << ',' << CsvField(event.message) << '\n';
     events_.flush();
     if (!events_) throw Error(path.string(), 0, "cannot be written");
   }
@@ -247,9 +247,8 @@ bool RecorderOptions::Check(std::string* error) const {
   return false;
 }
 
-RecorderProgress Record(FrameSource& source, const std::string& dir,
-                        const RecorderOptions& options, const RecorderCallback& progress,
-                        const std::atomic<bool>* stop) {
+RecorderProgress Record(FrameSource& source, const std::string& dir, const RecorderOptions& options,
+                        const RecorderCallback& progress, const std::atomic<bool>* stop) {
   std::string why;
   if (!options.Check(&why)) throw Error("recorder options: " + why);
   std::error_code ignored;

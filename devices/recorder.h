@@ -32,13 +32,13 @@ struct RecorderOptions {
 };
 
 struct RecorderProgress {
-  double elapsed_s = 0.0;         // Wall-clock time since the source started.
-  double recorded_s = 0.0;        // Source time from the first written frame to the last.
-  uint64_t frames_written = 0;    // Rows flushed to cam0/data.csv.
-  uint64_t accel_written = 0;     // Rows flushed to accel0/data.csv.
-  uint64_t frames_dropped = 0;    // By the writer queue (the disk was too slow).
-  uint64_t items_refused = 0;     // Not later than the previous one of their stream.
-  SourceStats source;             // The source's own counts (its drops, gaps).
+  double elapsed_s = 0.0;           // Wall-clock time since the source started.
+  double recorded_s = 0.0;          // Source time from the first written frame to the last.
+  uint64_t frames_written = 0;      // Rows flushed to cam0/data.csv.
+  uint64_t accel_written = 0;       // Rows flushed to accel0/data.csv.
+  uint64_t frames_dropped = 0;      // By the writer queue (the disk was too slow).
+  uint64_t items_refused = 0;       // Not later than the previous one of their stream.
+  SourceStats source;               // The source's own counts (its drops, gaps).
   std::vector<SourceEvent> events;  // Device events so far, oldest first.
 };
 
@@ -50,8 +50,8 @@ using RecorderCallback = std::function<void(const RecorderProgress&)>;
 // `progress` is called from the caller's thread every progress_interval_s and once at the
 // end. Throws Error when the source cannot start (no folder is created then) or a write
 // fails (what was flushed before stays readable).
-RecorderProgress Record(FrameSource& source, const std::string& dir,
-                        const RecorderOptions& options, const RecorderCallback& progress = {},
+RecorderProgress Record(FrameSource& source, const std::string& dir, const RecorderOptions& options,
+                        const RecorderCallback& progress = {},
                         const std::atomic<bool>* stop = nullptr);
 
 }  // namespace autocal

@@ -88,9 +88,7 @@ class AccelOverrideSequence : public Sequence {
   std::optional<cv::Mat> LoadPlaneLabels(size_t index) const override {
     return base_->LoadPlaneLabels(index);
   }
-  std::optional<std::string> SceneDescription() const override {
-    return base_->SceneDescription();
-  }
+  std::optional<std::string> SceneDescription() const override { return base_->SceneDescription(); }
 
  private:
   std::unique_ptr<Sequence> base_;
@@ -135,7 +133,8 @@ class SequenceSource : public FrameSource {
     std::unique_lock lock(mutex_);
     if (stopped_) return Status::kEnd;
     if (next_accel_ < accel.size() &&
-        (next_frame_ >= frames || accel[next_accel_].t_ns <= sequence_->frame_time_ns(next_frame_))) {
+        (next_frame_ >= frames ||
+         accel[next_accel_].t_ns <= sequence_->frame_time_ns(next_frame_))) {
       item->kind = SourceItem::Kind::kAccel;
       item->accel = accel[next_accel_++];
       item->t_ns = item->accel.t_ns;
@@ -323,9 +322,9 @@ class LiveSource : public FrameSource {
       const auto now = std::chrono::steady_clock::now();
       if (now >= deadline) return Status::kTimeout;
       // Short waits: frames wake us at once, samples and held frames within 2 ms.
-      camera_->WaitForFrames(1, std::min(std::chrono::duration_cast<std::chrono::milliseconds>(
-                                             deadline - now),
-                                         std::chrono::milliseconds(2)));
+      camera_->WaitForFrames(
+          1, std::min(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now),
+                      std::chrono::milliseconds(2)));
     }
   }
 
@@ -343,7 +342,6 @@ class LiveSource : public FrameSource {
       stats.accel_disconnections = accel.disconnections;
       stats.accel_rate_hz = accel.rate_hz;
     }
-    stats.out_of_order = merger_.out_of_order();
     return stats;
   }
 
@@ -378,6 +376,7 @@ class LiveSource : public FrameSource {
       } else {
         ++stats_.accel_samples;
       }
+      stats_.out_of_order = merger_.out_of_order();  // The merger is the consumer's alone.
     }
     *item = std::move(next);
     return Status::kItem;
@@ -488,7 +487,8 @@ std::unique_ptr<Sequence> OpenImageFolder(const std::string& dir, double fps_hz)
     if (it->is_regular_file() && IsImageFile(it->path())) images.push_back(it->path());
   }
   if (images.empty()) {
-    throw Error(dir, 0, "holds no images (png, jpg, jpeg, bmp, tif, tiff) and is no known recording");
+    throw Error(dir, 0,
+                "holds no images (png, jpg, jpeg, bmp, tif, tiff) and is no known recording");
   }
   std::sort(images.begin(), images.end());
 
@@ -502,7 +502,8 @@ std::unique_ptr<Sequence> OpenImageFolder(const std::string& dir, double fps_hz)
   if (named_ns.size() == images.size()) {
     std::vector<size_t> order(images.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return named_ns[a] < named_ns[b]; });
+    std::sort(order.begin(), order.end(),
+              [&](size_t a, size_t b) { return named_ns[a] < named_ns[b]; });
     for (size_t i = 0; i < order.size(); ++i) {
       if (i > 0 && named_ns[order[i]] == named_ns[order[i - 1]]) {
         throw Error(images[order[i]].string(), 0, "two images name the same time");
@@ -516,11 +517,12 @@ std::unique_ptr<Sequence> OpenImageFolder(const std::string& dir, double fps_hz)
       contents.frame_times_ns.push_back(std::llround(static_cast<double>(i) * 1e9 / fps_hz));
     }
     contents.frame_paths = images;
-    contents.session.notes = "image folder; frames timed at an assumed " +
-                             std::to_string(fps_hz) + " Hz";
+    contents.session.notes =
+        "image folder; frames timed at an assumed " + std::to_string(fps_hz) + " Hz";
   }
   const cv::Mat first = cv::imread(contents.frame_paths.front().string(), cv::IMREAD_COLOR);
-  if (first.empty()) throw Error(contents.frame_paths.front().string(), 0, "cannot decode as an image");
+  if (first.empty())
+    throw Error(contents.frame_paths.front().string(), 0, "cannot decode as an image");
   contents.session.camera_device = "image folder";
   contents.session.width = first.cols;
   contents.session.height = first.rows;
@@ -557,8 +559,9 @@ std::unique_ptr<FrameSource> OpenSource(const std::string& input, const std::str
     return std::make_unique<LiveSource>(*camera, accel_spec, options);
   }
   if (accel_spec.kind == AccelSpec::Kind::kUsb) {
-    throw Error("--accel " + accel + ": a USB accelerometer needs a live camera input (camera:N); " +
-                input + " is recorded, on another clock");
+    throw Error("--accel " + accel +
+                ": a USB accelerometer needs a live camera input (camera:N); " + input +
+                " is recorded, on another clock");
   }
 
   std::unique_ptr<Sequence> sequence;
@@ -577,9 +580,8 @@ std::unique_ptr<FrameSource> OpenSource(const std::string& input, const std::str
     sequence = std::make_unique<AccelOverrideSequence>(std::move(sequence), std::move(samples),
                                                        accel_spec.csv_path, std::move(warnings));
   } else if (accel_spec.kind == AccelSpec::Kind::kNone) {
-    sequence = std::make_unique<AccelOverrideSequence>(std::move(sequence),
-                                                       std::vector<AccelSample>{}, "none",
-                                                       std::vector<std::string>{});
+    sequence = std::make_unique<AccelOverrideSequence>(
+        std::move(sequence), std::vector<AccelSample>{}, "none", std::vector<std::string>{});
   }
   return std::make_unique<SequenceSource>(std::move(sequence), options.read_ahead);
 }

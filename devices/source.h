@@ -48,8 +48,8 @@ struct SourceItem {
 };
 
 struct SourceStats {
-  uint64_t frames = 0;         // Frames delivered.
-  uint64_t accel_samples = 0;  // Samples delivered.
+  uint64_t frames = 0;          // Frames delivered.
+  uint64_t accel_samples = 0;   // Samples delivered.
   uint64_t frames_dropped = 0;  // By full queues (live sources only).
   uint64_t accel_dropped = 0;
   // Items delivered after a later one had been delivered already (a live stream that

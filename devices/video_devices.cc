@@ -59,8 +59,7 @@ std::vector<double> DiscreteRates(int fd, uint32_t pixel_format, int width, int 
 void ListFormats(int fd, VideoDeviceInfo* device) {
   v4l2_fmtdesc description{};
   description.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-  for (description.index = 0; Xioctl(fd, VIDIOC_ENUM_FMT, &description) == 0;
-       ++description.index) {
+  for (description.index = 0; Xioctl(fd, VIDIOC_ENUM_FMT, &description) == 0; ++description.index) {
     VideoFormat format;
     format.fourcc = FourccText(description.pixelformat);
     format.description = Text(description.description);
@@ -106,9 +105,8 @@ VideoDeviceInfo QueryVideoDevice(const std::string& path) {
   device.driver = Text(capability.driver);
   device.bus_info = Text(capability.bus_info);
   // device_caps describes this node; capabilities the whole physical device.
-  const uint32_t caps = (capability.capabilities & V4L2_CAP_DEVICE_CAPS)
-                            ? capability.device_caps
-                            : capability.capabilities;
+  const uint32_t caps = (capability.capabilities & V4L2_CAP_DEVICE_CAPS) ? capability.device_caps
+                                                                         : capability.capabilities;
   device.can_capture = (caps & V4L2_CAP_VIDEO_CAPTURE) != 0;
   if (device.can_capture) ListFormats(fd, &device);
   close(fd);

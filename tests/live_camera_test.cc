@@ -30,7 +30,8 @@ void WriteVideo(const std::string& path) {
   cv::VideoWriter writer(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
                          30.0, cv::Size(64, 48));
   ASSERT_TRUE(writer.isOpened());
-  for (int i = 0; i < kFileFrames; ++i) writer.write(cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(20 * i)));
+  for (int i = 0; i < kFileFrames; ++i)
+    writer.write(cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(20 * i)));
 }
 
 int FrameIndex(const cv::Mat& image) {
@@ -76,7 +77,8 @@ TEST(LiveCameraTest, UnplugAndReplugKeepTheSessionAndRecordTheGap) {
   ASSERT_TRUE(WaitUntil([&] {
     const LiveCameraStats s = camera.stats();
     return s.frames >= unplugged.frames + kFileFrames;
-  })) << "frames " << camera.stats().frames << " (" << unplugged.frames << " before), gaps "
+  })) << "frames "
+      << camera.stats().frames << " (" << unplugged.frames << " before), gaps "
       << camera.stats().gaps.size() << ", disconnections " << camera.stats().disconnections
       << ", attempts " << camera.stats().reconnect_attempts;
   camera.Stop();
@@ -107,8 +109,8 @@ TEST(LiveCameraTest, UnplugAndReplugKeepTheSessionAndRecordTheGap) {
   const std::vector<CameraEvent> events = camera.TakeEvents();
   ASSERT_GE(events.size(), 3u);
   for (size_t i = 0; i < events.size(); ++i) {
-    EXPECT_EQ(events[i].kind, i % 2 == 0 ? CameraEvent::Kind::kConnected
-                                         : CameraEvent::Kind::kDisconnected)
+    EXPECT_EQ(events[i].kind,
+              i % 2 == 0 ? CameraEvent::Kind::kConnected : CameraEvent::Kind::kDisconnected)
         << "event " << i << ": " << events[i].message;
     if (i > 0) {
       EXPECT_GE(events[i].t_ns, events[i - 1].t_ns);
@@ -143,7 +145,8 @@ TEST(LiveCameraTest, StartSaysWhatIsWrong) {
     LiveCamera(missing).Start();
     FAIL();
   } catch (const Error& e) {
-    EXPECT_TRUE(std::string(e.what()).starts_with("no camera at /dev/video987; found: ")) << e.what();
+    EXPECT_TRUE(std::string(e.what()).starts_with("no camera at /dev/video987; found: "))
+        << e.what();
   }
 
   test::TempDir dir;

@@ -68,7 +68,8 @@ std::vector<std::string> ReadLines(const std::filesystem::path& path) {
 }
 
 TEST(LiveSourceUsb, CameraAndUsbAccelerometerRecordedTogether) {
-  if (!test::RunningUnderUmockdevWrapper()) GTEST_SKIP() << "needs umockdev-wrapper (ctest runs it so)";
+  if (!test::RunningUnderUmockdevWrapper())
+    GTEST_SKIP() << "needs umockdev-wrapper (ctest runs it so)";
   test::UsbTestbed bed;  // Before libusb_init, which the source's Start() calls.
   const int first = bed.Plug(SensorHub());
   test::TempDir dir;
@@ -91,14 +92,16 @@ TEST(LiveSourceUsb, CameraAndUsbAccelerometerRecordedTogether) {
   std::string feeder_error;
   std::thread feeder([&] {
     for (int i = 0; i < 40; ++i) {
-      if (!bed.SendReport(first, AccelReport(i, -i, 100))) feeder_error = "report " + std::to_string(i);
+      if (!bed.SendReport(first, AccelReport(i, -i, 100)))
+        feeder_error = "report " + std::to_string(i);
       std::this_thread::sleep_for(3ms);
     }
     bed.Unplug(first);
     std::this_thread::sleep_for(100ms);
     const int second = bed.Plug(SensorHub());
     for (int i = 100; i < 120; ++i) {
-      if (!bed.SendReport(second, AccelReport(i, -i, 100))) feeder_error = "report " + std::to_string(i);
+      if (!bed.SendReport(second, AccelReport(i, -i, 100)))
+        feeder_error = "report " + std::to_string(i);
       std::this_thread::sleep_for(3ms);
     }
     fed = true;

@@ -90,7 +90,8 @@ TEST(SourcesTest, NativeRecordingStreamsWhatLoadFrameReads) {
   EXPECT_EQ(streamed.frames.size(), 30u);
   // Samples up to the first frame's time come before it.
   size_t before_first_frame = 0;
-  for (const AccelSample& s : reference->accel()) before_first_frame += s.t_ns <= reference->frame_time_ns(0);
+  for (const AccelSample& s : reference->accel())
+    before_first_frame += s.t_ns <= reference->frame_time_ns(0);
   EXPECT_GT(before_first_frame, 0u);
   EXPECT_EQ(streamed.times[before_first_frame], reference->frame_time_ns(0));
 }
@@ -124,7 +125,8 @@ TEST(SourcesTest, ImageFolderTimedByNamesOrByRate) {
 
   fs::create_directories(dir / "named");
   for (const char* name : {"b.jpg", "a.png", "c.bmp"}) {
-    ASSERT_TRUE(cv::imwrite(dir / (std::string("named/") + name), cv::Mat(12, 16, CV_8UC3, cv::Scalar::all(128))));
+    ASSERT_TRUE(cv::imwrite(dir / (std::string("named/") + name),
+                            cv::Mat(12, 16, CV_8UC3, cv::Scalar::all(128))));
   }
   test::WriteTextFile(dir / "named/notes.txt", "not an image");
   // With an accelerometer CSV given beside.
@@ -191,12 +193,14 @@ TEST(SourcesTest, MissingCameraSaysWhatWasFound) {
 
 TEST(SourcesTest, RefusesClocksThatDoNotMix) {
   test::TempDir dir;
-  test::WriteTextFile(dir / "accel.csv", "#timestamp [ns],a_x [m s^-2],a_y [m s^-2],a_z [m s^-2]\n");
+  test::WriteTextFile(dir / "accel.csv",
+                      "#timestamp [ns],a_x [m s^-2],a_y [m s^-2],a_z [m s^-2]\n");
   try {
     OpenSource(kSmallSim, "usb");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("needs a live camera input"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("needs a live camera input"), std::string::npos)
+        << e.what();
   }
   EXPECT_THROW(OpenSource("camera:0", dir / "accel.csv"), Error);
   EXPECT_THROW(OpenSource(dir / "nothing-here"), Error);

@@ -2,7 +2,8 @@
 # A recording killed with SIGKILL mid-way is readable up to its last second: `autocal
 # info` accepts it as it is (no --truncate-at-fault), and it holds at least the frames
 # and accelerometer samples the last progress line (printed each second, counting only
-# rows already flushed) reported before the kill.
+# rows already flushed) reported before the kill. Ctrl-C (SIGINT) instead stops it cleanly:
+# exit 0, a summary naming exactly what the recording holds.
 set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
@@ -41,4 +42,25 @@ grep -qE '^frame gaps +none' "$dir/info" || fail "frames kept are consecutive"
 # renamed), and the rows are whole lines.
 [[ $(tail -c 1 "$dir/rec/cam0/data.csv" | od -An -c | tr -d ' ') == '\n' ]] || fail "cam0/data.csv ends mid-row"
 [[ $(tail -c 1 "$dir/rec/accel0/data.csv" | od -An -c | tr -d ' ') == '\n' ]] || fail "accel0/data.csv ends mid-row"
+# SIGINT: a clean stop.
+"$autocal" record --input sim:office --seconds 20 --out "$dir/int" 2>"$dir/progress2" >"$dir/out2" &
+pid=$!
+for _ in $(seq 600); do
+  grep -qE '^record: .* [1-9][0-9]* frames' "$dir/progress2" && break
+  sleep 0.2
+done
+kill -INT "$pid"
+set +e
+wait "$pid"; code=$?
+set -e
+pid=""
+[[ $code -eq 0 ]] || fail "record stopped by SIGINT exits $code: $(cat "$dir/progress2")"
+summary_frames=$(sed -nE 's/^recorded ([0-9]+) frames and ([0-9]+) accelerometer samples.*/\1/p' "$dir/out2")
+summary_samples=$(sed -nE 's/^recorded ([0-9]+) frames and ([0-9]+) accelerometer samples.*/\2/p' "$dir/out2")
+[[ -n "$summary_frames" ]] || fail "summary after SIGINT: $(cat "$dir/out2")"
+"$autocal" info "$dir/int" >"$dir/info2" || fail "info refuses the stopped recording: $(cat "$dir/info2")"
+grep -qE "^frames +$summary_frames frames" "$dir/info2" || fail "summary says $summary_frames frames: $(cat "$dir/info2")"
+grep -qE "^accelerometer +$summary_samples samples" "$dir/info2" || fail "summary says $summary_samples samples"
+[[ $summary_frames -lt 600 ]] || fail "SIGINT did not stop the recording"
+
 echo "record_kill: all checks passed ($got_frames frames, $got_samples samples after SIGKILL)"
