@@ -110,9 +110,10 @@ TEST(LiveSourceUsb, CameraAndUsbAccelerometerRecordedTogether) {
   recorder.seconds = 60;
   std::atomic<bool> stop{false};
   std::thread stopper([&] {
-    // Record until every report is in, and a little longer for the last frames.
+    // Record until every report is in, and longer than the merger holds an item (100 ms)
+    // with room for a busy machine.
     while (!fed) std::this_thread::sleep_for(10ms);
-    std::this_thread::sleep_for(200ms);
+    std::this_thread::sleep_for(1s);
     stop = true;
   });
   const RecorderProgress result = Record(*source, dir / "rec", recorder, {}, &stop);
