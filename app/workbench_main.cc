@@ -26,6 +26,11 @@ struct Options {
   QCommandLineOption quit_after{QStringLiteral("quit-after"),
                                 QStringLiteral("Quit after <ms> milliseconds."),
                                 QStringLiteral("ms")};
+  QCommandLineOption history{
+      QStringLiteral("history"),
+      QStringLiteral("Open a calibration history (the SQLite file autocal writes) in the "
+                     "Calibration and History docks."),
+      QStringLiteral("file")};
 };
 
 Options Configure(QCommandLineParser* parser) {
@@ -37,6 +42,7 @@ Options Configure(QCommandLineParser* parser) {
   Options options{parser->addHelpOption(), parser->addVersionOption()};
   parser->addOption(options.screenshot);
   parser->addOption(options.quit_after);
+  parser->addOption(options.history);
   parser->addPositionalArgument(
       QStringLiteral("source"),
       QStringLiteral("Recording folder, video file with an accelerometer CSV, or sim:SPEC "
@@ -136,9 +142,17 @@ int main(int argc, char** argv) {
 
   window.open(positional.isEmpty() ? QString::fromLatin1(autocal::MainWindow::kDefaultSource)
                                    : positional.front());
+  bool history_failed = false;
+  if (parser.isSet(options.history)) {
+    QObject::connect(&window, &autocal::MainWindow::historyFailed, &window,
+                     [&history_failed] { history_failed = true; });
+    window.openHistory(parser.value(options.history));
+  }
   const int status = app.exec();
   if (status != 0) return status;
   // Smoke tests and bootstrap runs rely on the exit status to tell that it worked.
-  if (unattended && (screenshot_failed || window.sequence() == nullptr)) return 1;
+  if (unattended && (screenshot_failed || history_failed || window.sequence() == nullptr)) {
+    return 1;
+  }
   return 0;
 }
