@@ -11,7 +11,6 @@
 #include <mutex>
 #include <thread>
 
-#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "devices/live_camera.h"
@@ -169,39 +168,29 @@ class SequenceSource : public FrameSource {
     std::exception_ptr failure;
   };
 
-  // Loads frames in batches of read_ahead_, the batch's frames in parallel (rendering a
-  // simulated frame takes one core for tens of ms), and queues them in order.
+  // Loads frames in index order, up to read_ahead_ ahead of the consumer. In order, not
+  // in parallel: a video decodes forward without seeking, and the simulator's renderer
+  // already uses every core for one frame.
   void ReadAhead() {
-    const size_t count = sequence_->frame_count();
-    for (size_t begin = 0; begin < count; begin += read_ahead_) {
+    for (size_t i = 0; i < sequence_->frame_count(); ++i) {
       {
         std::unique_lock lock(mutex_);
         changed_.wait(lock, [&] { return ready_.size() < read_ahead_ || stopped_; });
         if (stopped_) return;
       }
-      const size_t end = std::min(count, begin + read_ahead_);
-      std::vector<Loaded> batch(end - begin);
-      cv::parallel_for_(cv::Range(static_cast<int>(begin), static_cast<int>(end)),
-                        [&](const cv::Range& range) {
-                          for (int i = range.start; i < range.end; ++i) {
-                            try {
-                              batch[i - begin].image = sequence_->LoadFrame(i);
-                            } catch (...) {
-                              batch[i - begin].failure = std::current_exception();
-                            }
-                          }
-                        });
-      bool failed = false;
+      Loaded loaded;
+      try {
+        loaded.image = sequence_->LoadFrame(i);
+      } catch (...) {
+        loaded.failure = std::current_exception();
+      }
+      const bool failed = loaded.failure != nullptr;
       {
         std::lock_guard lock(mutex_);
-        for (Loaded& loaded : batch) {
-          failed = loaded.failure != nullptr;
-          ready_.push_back(std::move(loaded));
-          if (failed) break;  // The consumer stops at the failed frame.
-        }
+        ready_.push_back(std::move(loaded));
       }
       changed_.notify_all();
-      if (failed) return;
+      if (failed) return;  // The consumer stops at the failed frame.
     }
   }
 

@@ -136,8 +136,7 @@ struct SourceOptions {
   // Live: a frame is held this long for accelerometer samples up to its time, so that
   // items leave in time order although the two devices deliver with different delays.
   std::chrono::milliseconds reorder_window{100};
-  // Recorded: frames decoded (rendered, for the simulator) ahead of the consumer, in
-  // parallel batches of this many.
+  // Recorded: frames decoded (rendered, for the simulator) ahead of the consumer.
   size_t read_ahead = 4;
 
   bool Check(std::string* error) const;

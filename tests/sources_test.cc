@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "devices/recording_writer.h"
 #include "devices/sim/simulator.h"
@@ -94,6 +96,28 @@ TEST(SourcesTest, NativeRecordingStreamsWhatLoadFrameReads) {
     before_first_frame += s.t_ns <= reference->frame_time_ns(0);
   EXPECT_GT(before_first_frame, 0u);
   EXPECT_EQ(streamed.times[before_first_frame], reference->frame_time_ns(0));
+}
+
+TEST(SourcesTest, VideoWithCsvStreamsWhatLoadFrameDecodes) {
+  test::TempDir dir;
+  {
+    cv::VideoWriter writer(dir / "walk.avi", cv::CAP_OPENCV_MJPEG,
+                           cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 30.0, cv::Size(64, 48));
+    ASSERT_TRUE(writer.isOpened());
+    for (int i = 0; i < 20; ++i) {
+      cv::Mat frame(48, 64, CV_8UC3, cv::Scalar::all(10 * i));
+      cv::circle(frame, {3 * i, 24}, 5, cv::Scalar(255, 0, 0), -1);
+      writer.write(frame);
+    }
+  }
+  std::string csv = "#timestamp [ns],a_x [m s^-2],a_y [m s^-2],a_z [m s^-2]\n";
+  for (int k = 0; k < 200; ++k) csv += std::to_string(k * 5'000'000) + ",0,0,9.81\n";
+  test::WriteTextFile(dir / "walk.csv", csv);
+
+  const Streamed streamed = StreamAll(*OpenSource(dir / "walk.avi"));
+  const std::unique_ptr<Sequence> reference = OpenSequence(dir / "walk.avi");
+  ExpectSameAsSequence(streamed, *reference);
+  EXPECT_EQ(streamed.frames.size(), 20u);
 }
 
 TEST(SourcesTest, StopEndsARecordedStream) {
