@@ -211,8 +211,7 @@ class SequenceSource : public FrameSource {
 class LiveSource : public FrameSource {
  public:
   LiveSource(const CameraSpec& camera, const AccelSpec& accel, const SourceOptions& options)
-      : options_(options),
-        merger_(std::chrono::nanoseconds(options.reorder_window).count(), true,
+      : merger_(std::chrono::nanoseconds(options.reorder_window).count(), true,
                 accel.kind == AccelSpec::Kind::kUsb) {
     LiveCameraOptions camera_options;
     camera_options.device = camera.device;
@@ -371,7 +370,6 @@ class LiveSource : public FrameSource {
     return Status::kItem;
   }
 
-  const SourceOptions options_;
   std::unique_ptr<LiveCamera> camera_;
   std::unique_ptr<UsbAccelerometer> accelerometer_;
   // Consumer thread only.

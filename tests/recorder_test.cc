@@ -10,7 +10,6 @@
 #include <gtest/gtest.h>
 #include <opencv2/videoio.hpp>
 
-#include "devices/session_io.h"
 #include "pipeline/error.h"
 #include "tests/test_util.h"
 
