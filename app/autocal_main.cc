@@ -21,6 +21,8 @@ const std::map<QString, Subcommand>& Subcommands() {
   static const std::map<QString, Subcommand> kSubcommands = {
       {"simulate", {autocal::cli::Simulate, "write a simulated recording from a scenario"}},
       {"info", {autocal::cli::Info, "validate a recording and report its contents"}},
+      {"run",
+       {autocal::cli::Run, "calibrate from a recording: boxes 1-10, history, summary, export"}},
       {"distortion",
        {autocal::cli::Distortion, "estimate lens distortion from straight lines in still images"}},
       {"record",

@@ -10,6 +10,8 @@ namespace autocal::cli {
 int Simulate(const QStringList& arguments);
 int Info(const QStringList& arguments);
 int Distortion(const QStringList& arguments);
+// run_command.cc
+int Run(const QStringList& arguments);
 // record_command.cc
 int Record(const QStringList& arguments);
 int Devices(const QStringList& arguments);

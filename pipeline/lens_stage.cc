@@ -4,13 +4,10 @@
 #include <chrono>
 #include <cmath>
 
+#include "pipeline/stopwatch.h"
+
 namespace autocal {
 namespace {
-
-double MillisecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 Eigen::Vector2d Middle(const RadonSnake& snake) {
   return snake.vertices[snake.vertices.size() / 2];
@@ -99,10 +96,14 @@ void LensStage::Pool(const RadonSnake& snake, cv::Size image_size) {
   AddShape(snake.InnerVertices(), image_size);
 }
 
-PlumbLineResult LensStage::EstimateNow(const CameraIntrinsics& initial) const {
+std::vector<LineObservation> LensStage::PooledShapes() const {
   std::vector<LineObservation> shapes;
   for (const auto& [key, bin] : pool_) shapes.insert(shapes.end(), bin.begin(), bin.end());
-  return EstimateDistortion(shapes, initial, options_.plumb_line);
+  return shapes;
+}
+
+PlumbLineResult LensStage::EstimateNow(const CameraIntrinsics& initial) const {
+  return EstimateDistortion(PooledShapes(), initial, options_.plumb_line);
 }
 
 LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,

@@ -70,6 +70,8 @@ class LensStage {
   void set_options(const LensOptions& options);
   const LensOptions& options() const { return options_; }
   size_t pooled_shapes() const;
+  // The snake shapes pooled so far (raw pixels), bin by bin over the image.
+  std::vector<LineObservation> PooledShapes() const;
 
  private:
   void Pool(const RadonSnake& snake, cv::Size image_size);

@@ -101,6 +101,8 @@ bool PlaneOptions::Check(std::string* error) const {
     why << "baseline_frames must be at least 1";
   } else if (long_baseline_frames != 0 && long_baseline_frames <= baseline_frames) {
     why << "long_baseline_frames must be 0 or exceed baseline_frames";
+  } else if (young_frames < 0 || young_frames >= baseline_frames) {
+    why << "young_frames must be in [0, baseline_frames)";
   } else if (!(inlier_threshold_px > 0)) {
     why << "inlier_threshold_px must be positive";
   } else if (!(eject_threshold_px >= inlier_threshold_px)) {
@@ -119,6 +121,8 @@ bool PlaneOptions::Check(std::string* error) const {
     why << "min_parallax_px must not be negative";
   } else if (!(noise_scale >= 0)) {
     why << "noise_scale must not be negative";
+  } else if (!(max_noise_scale >= 1)) {
+    why << "max_noise_scale must be at least 1";
   } else if (!(min_spread >= 0)) {
     why << "min_spread must not be negative";
   } else if (max_planes < 1) {
@@ -194,6 +198,8 @@ struct PlaneTracker::Frame {
   std::vector<cv::Point2f> now;        // Per track: undistorted position now,
   std::vector<cv::Point2f> base;       // in the baseline frame,
   std::vector<bool> has_base;          // if it was tracked then,
+  std::vector<cv::Point2f> start;      // where it started, for young tracks,
+  std::vector<int64_t> start_t_ns;     // and when (-1: not judged young),
   std::vector<cv::Point2f> far;        // in the frame long_baseline_frames ago,
   std::vector<bool> has_far;           // if it was tracked then, and how many undistorted
   std::vector<float> magnification;    // pixels a pixel of the image tracked spans now.
@@ -233,7 +239,8 @@ const cv::Matx33d* PlaneTracker::State::ChainAt(int64_t t_ns) const {
 bool PlaneTracker::FollowRecent(State* state, const Frame& frame) const {
   std::erase_if(state->members, [&](const auto& member) {
     const auto it = frame.index.find(member.first);
-    return it == frame.index.end() || !frame.has_base[it->second];
+    return it == frame.index.end() ||
+           (!frame.has_base[it->second] && frame.start_t_ns[it->second] < 0);
   });
   if (int(state->members.size()) < options_.min_tracks_to_keep) return false;
   const std::vector<int> based = frame.Based(state->members);
@@ -269,11 +276,23 @@ bool PlaneTracker::FollowRecent(State* state, const Frame& frame) const {
   return true;
 }
 
+double PlaneTracker::Error(const State& state, const Frame& frame, int track) const {
+  if (frame.has_base[track]) return frame.RecentError(state.recent, track);
+  if (frame.start_t_ns[track] < 0) return kInfinity;
+  const cv::Matx33d* to_base = state.ChainAt(frame.base_t_ns);
+  const cv::Matx33d* to_start = state.ChainAt(frame.start_t_ns[track]);
+  if (!to_base || !to_start) return kInfinity;
+  const cv::Matx33d start_to_now = state.recent * *to_base * to_start->inv();
+  return Distance(Transfer(start_to_now, frame.start[track]), frame.now[track]) /
+         frame.magnification[track];
+}
+
 double PlaneTracker::Scale(std::vector<double> errors) const {
   if (errors.empty()) return 1.0;
   std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
-  return std::max(1.0,
-                  options_.noise_scale * errors[errors.size() / 2] / options_.inlier_threshold_px);
+  return std::clamp(
+      options_.noise_scale * errors[errors.size() / 2] / options_.inlier_threshold_px, 1.0,
+      options_.max_noise_scale);
 }
 
 bool PlaneTracker::Near(const State& state, const Frame& frame, int track) const {
@@ -292,12 +311,12 @@ std::vector<std::vector<int>> PlaneTracker::Assign(const Frame& frame) {
   }
   std::vector<std::vector<int>> joiners(states_.size());
   for (size_t i = 0; i < frame.tracks->size(); ++i) {
-    if (!frame.has_base[i]) continue;
+    if (!frame.has_base[i] && frame.start_t_ns[i] < 0) continue;
     double best = kInfinity, second = kInfinity;
     int chosen = -1;
     double own = kInfinity;
     for (size_t s = 0; s < states_.size(); ++s) {
-      const double error = frame.RecentError(states_[s].recent, int(i)) / states_[s].scale;
+      const double error = Error(states_[s], frame, int(i)) / states_[s].scale;
       if (int(s) == owner[i]) own = error;
       if (error < best) {
         second = best;
@@ -546,7 +565,10 @@ void PlaneTracker::Reanchor(State* state, const Frame& frame) const {
       }
     }
   }
-  for (auto& [id, point] : state->members) point = frame.base[frame.index.at(id)];
+  for (auto& [id, point] : state->members) {
+    const int i = frame.index.at(id);
+    point = frame.has_base[i] ? frame.base[i] : Transfer(old_to_new, point);
+  }
   while (!state->chain.empty() && state->chain.front().first < frame.base_t_ns) {
     state->chain.pop_front();
   }
@@ -694,6 +716,8 @@ void PlaneTracker::Update(int64_t t_ns, const std::vector<Track>& tracks,
   }
   frame.base.resize(tracks.size());
   frame.has_base.resize(tracks.size());
+  frame.start.resize(tracks.size());
+  frame.start_t_ns.resize(tracks.size());
   if (options_.long_baseline_frames > 0 &&
       int(frame_times_.size()) > options_.long_baseline_frames) {
     frame.far_t_ns = frame_times_[frame_times_.size() - 1 - options_.long_baseline_frames];
@@ -707,6 +731,11 @@ void PlaneTracker::Update(int64_t t_ns, const std::vector<Track>& tracks,
     const TrackPoint* at_base = tracks[i].At(frame.base_t_ns);
     frame.has_base[i] = at_base != nullptr;
     if (at_base) frame.base[i] = points[at_base - tracks[i].history.data()];
+    // A track's history holds its whole life while it is younger than the baseline.
+    const bool young =
+        !at_base && options_.young_frames > 0 && tracks[i].age >= options_.young_frames;
+    frame.start[i] = points.front();
+    frame.start_t_ns[i] = young ? tracks[i].history.front().t_ns : -1;
     const TrackPoint* at_far = frame.far_t_ns >= 0 ? tracks[i].At(frame.far_t_ns) : nullptr;
     frame.has_far[i] = at_far != nullptr;
     if (at_far) frame.far[i] = points[at_far - tracks[i].history.data()];

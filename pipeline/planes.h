@@ -30,12 +30,21 @@ struct PlaneOptions {
   // larger by the square root of 2 (drift grows about as the square root of time): planes
   // twice as close in depth come apart there.
   int long_baseline_frames = 20;
+  // Tracks younger than the baseline but this many frames old are judged over their own
+  // life, through the plane's homographies of those frames (0: not): in a fast turn most
+  // tracks live about two baselines, and a plane whose tracks could join only once a
+  // baseline old starves.
+  int young_frames = 5;
   double inlier_threshold_px = 0.6;  // Transfer error over the baseline to join a plane.
   double eject_threshold_px = 1.5;   // A member whose error exceeds this leaves its plane.
   // A plane whose tracks are noisier (a wall close by at a grazing angle, where patches
   // deform fast) has both thresholds scaled up by this times the median error of its
   // tracks over inlier_threshold_px, when that exceeds 1 (0: never).
   double noise_scale = 1.5;
+  // At most this factor: a plane whose tracks turn noisy (a fast turn) would otherwise
+  // widen its thresholds until it holds, and keeps out of new planes, tracks of the
+  // plane beside it.
+  double max_noise_scale = 1.5;
   // Planes are connected regions: a track joins one only this close to one of its tracks
   // (a fraction of the image diagonal); farther points that fit are more likely on
   // another plane that parallax does not yet set apart.
@@ -144,6 +153,9 @@ class PlaneTracker {
   struct Frame;
 
   bool FollowRecent(State* state, const Frame& frame) const;
+  // A track's transfer error by the plane, in pixels of the image tracked, over the
+  // baseline or, for a young track, over its life; infinite when it cannot be judged.
+  double Error(const State& state, const Frame& frame, int track) const;
   // Members that stray leave their plane; tracks that fit one plane alone are returned
   // as its joiners.
   std::vector<std::vector<int>> Assign(const Frame& frame);

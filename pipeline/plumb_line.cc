@@ -240,6 +240,17 @@ CameraIntrinsics ScaleDistortionToFocal(const CameraIntrinsics& camera, double f
   return scaled;
 }
 
+CameraIntrinsics WithDistortionOf(const CameraIntrinsics& pinhole, const CameraIntrinsics& lens) {
+  const CameraIntrinsics scaled = ScaleDistortionToFocal(lens, pinhole.fx, pinhole.fy);
+  CameraIntrinsics combined = pinhole;
+  combined.k1 = scaled.k1;
+  combined.k2 = scaled.k2;
+  combined.k3 = scaled.k3;
+  combined.p1 = scaled.p1;
+  combined.p2 = scaled.p2;
+  return combined;
+}
+
 double MaxDistortionDifference(const CameraIntrinsics& lens, const CameraIntrinsics& reference,
                                double radius_fraction, int grid_step_px) {
   const Eigen::Vector2d centre(0.5 * (reference.width - 1), 0.5 * (reference.height - 1));

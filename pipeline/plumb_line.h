@@ -58,6 +58,9 @@ PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& lines,
 // with powers of f_new / f_old, tangential ones linearly.
 CameraIntrinsics ScaleDistortionToFocal(const CameraIntrinsics& camera, double fx, double fy);
 
+// `pinhole`'s fx, fy, cx, cy with the distortion of `lens`, carried to those focal lengths.
+CameraIntrinsics WithDistortionOf(const CameraIntrinsics& pinhole, const CameraIntrinsics& lens);
+
 // How far apart two lenses put the same ray in the image, at worst (px): for every pixel
 // p within `radius_fraction` of the half-diagonal from the image centre, the ray lens
 // `reference` sees at p is projected through `lens`, and its distance to p taken. With

@@ -405,6 +405,15 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     ++result.planes_used;
     result.points_used += int(plane_points[p].size());
   }
+  // A point that the initial structure places behind a camera that sees it (a track that
+  // jumped to another surface, a triangulation gone wrong) cannot be evaluated at all:
+  // left out, or the solver could not start.
+  std::erase_if(residuals, [&](const Residual& r) {
+    double e[2];
+    return !PlanePointCost(r.pixel)(intrinsics.data(), frame_poses[r.frame].data(),
+                                    plane_poses[r.plane].data(),
+                                    plane_points[r.plane][r.point].data(), e);
+  });
   for (const Residual& r : residuals) {
     problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<PlanePointCost, 2, kNumIntrinsics, 6, 6, 2>(
@@ -499,6 +508,9 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   solver_options.linear_solver_ordering.reset(ordering);
   solver_options.max_num_iterations = options.max_iterations;
   solver_options.num_threads = 2;
+  // Trial steps that put a point behind a camera are refused, as they should be; Ceres
+  // would log each one.
+  solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
   if (!summary.IsSolutionUsable()) return no_update("the solver failed: " + summary.BriefReport());

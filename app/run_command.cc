@@ -1,0 +1,161 @@
+// `autocal run`: a recording through boxes 1-10, headless.
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <QCommandLineParser>
+
+#include "app/cli_commands.h"
+#include "app/cli_util.h"
+#include "devices/offline_runner.h"
+#include "devices/sequence.h"
+#include "pipeline/calibration_io.h"
+#include "pipeline/error.h"
+#include "pipeline/option_fields.h"
+
+namespace autocal::cli {
+namespace {
+
+void PrintCalibration(const char* label, const CameraIntrinsics& c) {
+  std::printf("%-8s fx %.2f fy %.2f cx %.2f cy %.2f k1 %.5f k2 %.5f p1 %.6f p2 %.6f k3 %.5f\n",
+              label, c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3);
+}
+
+void PrintError(const char* label, const CalibrationError& e) {
+  std::printf("%-26s fx %+.3f%% fy %+.3f%% cx %+.2f px cy %+.2f px distortion %.3f px\n", label,
+              e.fx_percent, e.fy_percent, e.cx_px, e.cy_px, e.distortion_px);
+}
+
+void PrintReport(const RunReport& report) {
+  const auto count = [&](Verdict v) {
+    const auto found = report.verdicts.find(v);
+    return found == report.verdicts.end() ? 0 : found->second;
+  };
+  std::printf("%zu frames (%.1f s of recording) in %.1f s: %.1f frames/s\n", report.frames,
+              report.seconds, report.wall_seconds, report.fps);
+  PrintCalibration("prior", report.prior);
+  PrintCalibration("final", report.final.calibration);
+  std::printf("attempts %d: accepted %d, rejected %d, no update %d, alarm %d, new regime %d\n",
+              report.attempts, count(Verdict::kAccepted), count(Verdict::kRejected),
+              count(Verdict::kNoUpdate), count(Verdict::kAlarm), count(Verdict::kNewRegime));
+  for (const std::string& reason : report.no_update_reasons) {
+    std::printf("  %s\n", reason.c_str());
+  }
+  for (const Alarm& alarm : report.alarms) {
+    std::printf("alarm at %.2f s: %s\n", 1e-9 * double(alarm.t_ns), alarm.description.c_str());
+  }
+  if (report.truth) {
+    PrintError("error against the truth:", report.truth->final);
+    if (report.truth->converged_at_s) {
+      std::printf("within tolerance from %.2f s\n", *report.truth->converged_at_s);
+      PrintError("worst after that:", *report.truth->worst_after_convergence);
+    } else {
+      std::printf("never within tolerance\n");
+    }
+  }
+}
+
+}  // namespace
+
+int Run(const QStringList& arguments) {
+  const QString name = "run";
+  QCommandLineParser parser;
+  parser.setApplicationDescription(
+      "Runs a recording through the whole pipeline (lines, distortion, tracks, planes,\n"
+      "accelerometer, self-calibration, history) headless, as fast as the machine allows.\n"
+      "Every calibration attempt and its verdict goes to the history; the output is the\n"
+      "filtered calibration.");
+  parser.addOptions({
+      {"input",
+       "Native recording, EuRoC or TUM folder, video with accelerometer CSV, or sim:SCENARIO.",
+       "path"},
+      {"prior",
+       "Calibration to start from (any format `autocal` writes); default: the recording's "
+       "pre-mission calibration.",
+       "file"},
+      {"history", "SQLite history file to append every attempt to.", "file.sqlite"},
+      {"summary", "Write the run's summary as JSON here.", "file.json"},
+      {"export", "Write the final calibration here (with --format).", "file"},
+      {"format",
+       "Format of --export: " + QString::fromStdString([] {
+         std::string names;
+         for (const std::string& n : CalibrationFormatNames()) names += (names.empty() ? "" : ", ") + n;
+         return names;
+       }()) + ".",
+       "name"},
+      {"accel-offset", "Seconds added to accelerometer timestamps (default 0).", "s", "0"},
+      {"settings", "Pipeline settings file (name = value lines; see --print-settings).", "file"},
+      {"set", "One pipeline option, e.g. --set material.window_s=3 (repeatable; after --settings).",
+       "name=value"},
+      {"print-settings", "Print every pipeline option with its value and meaning, and exit."},
+      {"truncate-at-fault", "Keep a recording up to its first fault instead of refusing it."},
+  });
+  if (const auto code = Parse(parser, name, arguments)) return *code;
+  if (!parser.isSet("input") && !parser.isSet("print-settings")) {
+    return UsageError(name, "--input is required", parser);
+  }
+  if (parser.isSet("export") != parser.isSet("format")) {
+    return UsageError(name, "--export and --format go together", parser);
+  }
+  bool offset_ok = false;
+  RunSettings settings;
+  settings.accel_time_offset_s = parser.value("accel-offset").toDouble(&offset_ok);
+  if (!offset_ok) {
+    return UsageError(name, "--accel-offset takes seconds, got " + parser.value("accel-offset"),
+                      parser);
+  }
+
+  try {
+    if (parser.isSet("settings")) {
+      settings.pipeline = ReadPipelineSettings(parser.value("settings").toStdString());
+    }
+    for (const QString& assignment : parser.values("set")) {
+      const int equals = assignment.indexOf('=');
+      if (equals <= 0) return UsageError(name, "--set takes name=value, got " + assignment, parser);
+      SetPipelineOption(&settings.pipeline, assignment.left(equals).toStdString(),
+                        assignment.mid(equals + 1).toStdString());
+    }
+    std::string why;
+    if (!settings.pipeline.Check(&why)) throw Error("pipeline options: " + why);
+    if (parser.isSet("print-settings")) {
+      std::printf("%s", PipelineSettingsText(settings.pipeline).c_str());
+      return 0;
+    }
+    std::optional<CalibrationFormat> export_format;
+    if (parser.isSet("format")) {
+      export_format = CalibrationFormatFromName(parser.value("format").toStdString());
+    }
+    if (parser.isSet("prior")) settings.prior = ReadCalibration(parser.value("prior").toStdString());
+    settings.history_path = parser.value("history").toStdString();
+    ReadOptions read_options;
+    read_options.truncate_at_fault = parser.isSet("truncate-at-fault");
+    const std::unique_ptr<Sequence> sequence =
+        OpenSequence(parser.value("input").toStdString(), read_options);
+    for (const std::string& warning : sequence->warnings()) {
+      std::fprintf(stderr, "autocal run: warning: %s\n", warning.c_str());
+    }
+
+    ProgressPrinter printer("run", "frames");
+    const RunReport report = RunSequence(*sequence, settings, [&](const RunProgress& progress) {
+      const CameraIntrinsics& c = progress.snapshot->calibration.calibration;
+      printer(progress.frame, progress.frames,
+              QString("fx %1 cx %2 cy %3, regime %4")
+                  .arg(c.fx, 0, 'f', 1)
+                  .arg(c.cx, 0, 'f', 1)
+                  .arg(c.cy, 0, 'f', 1)
+                  .arg(progress.snapshot->calibration.regime));
+    });
+    PrintReport(report);
+    if (parser.isSet("summary")) WriteSummary(parser.value("summary").toStdString(), report);
+    if (export_format) {
+      WriteCalibration(parser.value("export").toStdString(), report.final.calibration,
+                       *export_format);
+    }
+    return 0;
+  } catch (const Error& error) {
+    std::fprintf(stderr, "autocal run: %s\n", error.what());
+    return 1;
+  }
+}
+
+}  // namespace autocal::cli

@@ -1,0 +1,81 @@
+// Runs a recorded or simulated sequence through boxes 1-10 headless, frame after frame as
+// fast as the machine allows, feeding the accelerometer ahead of the frames, recording
+// every calibration attempt in the history file, and measuring the result against the
+// ground truth where the sequence has it. `autocal run` and the end-to-end tests use it.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "devices/sequence.h"
+#include "pipeline/calibration_error.h"
+#include "pipeline/calibration_pipeline.h"
+
+namespace autocal {
+
+struct RunSettings {
+  PipelineOptions pipeline;
+  // The calibration to start from; without one, the sequence's pre-mission calibration.
+  std::optional<CameraIntrinsics> prior;
+  std::string history_path;  // SQLite history file to append to; empty: none.
+  // Added to accelerometer timestamps to put them on the camera's clock.
+  double accel_time_offset_s = 0.0;
+  // Where the truth is known: "converged" once the output is within these of it.
+  CalibrationTolerance convergence;
+};
+
+// Median and 95th percentile of one box's time over the frames it ran on.
+struct TimingStats {
+  double median_ms = 0.0;
+  double p95_ms = 0.0;
+  int count = 0;
+};
+
+// The output against the truth, frame by frame and in summary.
+struct GroundTruthReport {
+  std::vector<int64_t> t_ns;                 // Each frame...
+  std::vector<CalibrationError> errors;      // ...the output's error after it.
+  CalibrationError final;                    // After the last frame.
+  std::optional<double> converged_at_s;      // From the first frame; never when absent.
+  std::optional<CalibrationError> worst_after_convergence;  // Largest magnitude per field.
+};
+
+struct RunReport {
+  std::string input;  // Sequence::Describe().
+  size_t frames = 0;
+  double seconds = 0.0;       // Span of the frame timestamps.
+  double wall_seconds = 0.0;  // Processing time.
+  double fps = 0.0;           // Frames processed per wall-clock second.
+  CameraIntrinsics prior;
+  FilteredCalibration final;
+  double final_rms_px = 0.0;  // Of the newest accepted attempt (0 when none).
+  int attempts = 0;
+  std::map<Verdict, int> verdicts;
+  std::vector<Alarm> alarms;
+  std::vector<std::string> no_update_reasons;  // Distinct reasons, in order of first use.
+  std::map<std::string, TimingStats> timing;   // By box (BoxTimings::Named), plus "frame".
+  std::optional<GroundTruthReport> truth;
+};
+
+struct RunProgress {
+  size_t frame = 0;  // Frames done.
+  size_t frames = 0;
+  double wall_seconds = 0.0;
+  const FrameSnapshot* snapshot = nullptr;  // The newest frame's.
+};
+
+// Processes every frame of `sequence`. Throws Error on bad settings, unreadable frames or
+// a history file it cannot write. `progress`, when given, is called after every frame.
+RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
+                      const std::function<void(const RunProgress&)>& progress = {});
+
+// DESIGN.md section 6: frames, seconds, fps, final, updates, alarms, timing_ms and, where
+// the truth is known, error. Throws Error naming the file when it cannot be written.
+std::string SummaryJson(const RunReport& report);
+void WriteSummary(const std::string& path, const RunReport& report);
+
+}  // namespace autocal

@@ -1,0 +1,198 @@
+#include "pipeline/calibration_pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "pipeline/error.h"
+#include "pipeline/stopwatch.h"
+
+namespace autocal {
+namespace {
+
+template <typename Options>
+bool CheckNested(const Options& options, const char* name, std::string* error) {
+  std::string why;
+  if (options.Check(&why)) return true;
+  if (error) *error = std::string(name) + "." + why;
+  return false;
+}
+
+// An estimate only counts for the distortion when box 10 let the distortion move.
+bool EstimatesDistortion(const AttemptRecord& record) {
+  return std::find(record.free_parameters.begin(), record.free_parameters.end(), kK1) !=
+         record.free_parameters.end();
+}
+
+}  // namespace
+
+bool PipelineOptions::Check(std::string* error) const {
+  return CheckNested(lens, "lens", error) && CheckNested(motion, "motion", error) &&
+         CheckNested(inertial, "inertial", error) && CheckNested(board, "board", error) &&
+         CheckNested(material, "material", error) &&
+         CheckNested(calibration, "calibration", error) &&
+         CheckNested(acceptance, "acceptance", error);
+}
+
+std::vector<std::pair<std::string, double>> BoxTimings::Named() const {
+  return {{"lines", lines_ms},       {"distortion", distortion_ms},
+          {"rectify", rectify_ms},   {"features", features_ms},
+          {"flow", flow_ms},         {"planes", planes_ms},
+          {"inertial", inertial_ms}, {"material", material_ms},
+          {"calibration", calibration_ms}, {"history", history_ms}};
+}
+
+CalibrationPipeline::CalibrationPipeline(const CameraIntrinsics& premission,
+                                         const AccelCalibration& accel,
+                                         const PipelineOptions& options)
+    : options_(options),
+      lens_(options.lens),
+      rectifier_(options.lens.rectify),
+      motion_(options.motion),
+      inertial_(accel, options.inertial),
+      material_(options.material),
+      history_(premission, options.acceptance) {
+  std::string why;
+  if (!options.Check(&why)) throw Error("pipeline options: " + why);
+  filtered_ = history_.Current(0);
+}
+
+void CalibrationPipeline::set_options(const PipelineOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw Error("pipeline options: " + why);
+  options_ = options;
+  lens_.set_options(options.lens);
+  rectifier_.set_options(options.lens.rectify);
+  motion_.set_options(options.motion);
+  inertial_.set_options(options.inertial);
+  material_.set_options(options.material);
+}
+
+void CalibrationPipeline::AddAccel(std::span<const SpecificForceSample> samples) {
+  inertial_.AddSamples(samples);
+}
+
+CameraIntrinsics CalibrationPipeline::Working() const {
+  if (distortion_accepted_ || !plumb_line_) return filtered_.calibration;
+  // Box 2 measured the distortion in pixels at the focal length it was given: the same
+  // pixels at today's focal length.
+  return WithDistortionOf(filtered_.calibration, plumb_line_->estimate);
+}
+
+std::optional<VisualMotion> CalibrationPipeline::VisionBetweenFrames(
+    const MotionSnapshot& motion) {
+  // The plane with the most tracks whose decomposition, from the same reference, is known
+  // in both frames: X_now = R X_ref + t d for each, so between the frames the camera turned
+  // by R_now R_before^T.
+  std::optional<VisualMotion> visual;
+  size_t best_tracks = 0;
+  std::vector<std::pair<int, std::pair<int64_t, Eigen::Matrix3d>>> now;
+  for (const DominantPlane& plane : motion.planes) {
+    if (!plane.motion) continue;
+    now.push_back({plane.id, {plane.reference_t_ns, plane.motion->rotation}});
+    const auto before =
+        std::find_if(previous_rotations_.begin(), previous_rotations_.end(),
+                     [&](const auto& entry) { return entry.first == plane.id; });
+    if (before == previous_rotations_.end() || before->second.first != plane.reference_t_ns ||
+        plane.track_ids.size() <= best_tracks) {
+      continue;
+    }
+    best_tracks = plane.track_ids.size();
+    const Eigen::Matrix3d turn = plane.motion->rotation * before->second.second.transpose();
+    VisualMotion found;
+    found.cam1_from_cam0 = Eigen::Quaterniond(turn).normalized();
+    visual = found;
+  }
+  previous_rotations_ = std::move(now);
+  return visual;
+}
+
+FrameSnapshot CalibrationPipeline::ProcessFrame(int64_t t_ns, const cv::Mat& raw,
+                                                std::optional<CalibrationJob>* job) {
+  FrameSnapshot snapshot;
+  snapshot.t_ns = t_ns;
+  snapshot.index = frames_++;
+  snapshot.working = Working();
+
+  snapshot.lens = lens_.Process(t_ns, raw, snapshot.working);
+  snapshot.timing.lines_ms = snapshot.lens.lines_ms;
+  snapshot.timing.distortion_ms = snapshot.lens.distortion_ms;
+  if (snapshot.lens.distortion && snapshot.lens.distortion->usable) {
+    plumb_line_ = snapshot.lens.distortion;
+  }
+
+  auto start = std::chrono::steady_clock::now();
+  const cv::Mat gray = rectifier_.Equalize(rectifier_.Channel(raw));
+  snapshot.timing.rectify_ms = MillisecondsSince(start);
+
+  snapshot.motion = motion_.Process(t_ns, gray, snapshot.working);
+  snapshot.timing.features_ms = snapshot.motion.features_ms;
+  snapshot.timing.flow_ms = snapshot.motion.flow_ms;
+  snapshot.timing.planes_ms = snapshot.motion.planes_ms;
+
+  start = std::chrono::steady_clock::now();
+  snapshot.inertial = inertial_.Process(t_ns, VisionBetweenFrames(snapshot.motion));
+  snapshot.motion.inertial.gravity_cam = snapshot.inertial.gravity_cam;
+  snapshot.motion.inertial.motion_class = MotionClassName(snapshot.inertial.motion);
+  snapshot.timing.inertial_ms = MillisecondsSince(start);
+  snapshot.motion.inertial.inertial_ms = snapshot.timing.inertial_ms;
+
+  start = std::chrono::steady_clock::now();
+  snapshot.view = material_.Add(snapshot.motion, snapshot.inertial);
+  const bool due =
+      !last_attempt_ns_ || double(t_ns - *last_attempt_ns_) >= options_.material.attempt_every_s * 1e9;
+  if (job && snapshot.view && due && !job_pending_ &&
+      material_.span_s() >= 0.5 * options_.material.window_s) {
+    CalibrationJob next;
+    next.t_ns = t_ns;
+    next.material = material_.Assemble(lens_.PooledShapes());
+    next.prior = snapshot.working;
+    next.view_times = material_.view_times();
+    *job = std::move(next);
+    job_pending_ = true;
+    last_attempt_ns_ = t_ns;
+  }
+  snapshot.timing.material_ms = MillisecondsSince(start);
+  snapshot.calibration = filtered_;
+  return snapshot;
+}
+
+std::shared_ptr<const AttemptOutcome> CalibrationPipeline::Judge(
+    const CalibrationJob& job, const SelfCalibrationResult& result) {
+  job_pending_ = false;
+  history_.Judge(job.t_ns, result);
+  auto outcome = std::make_shared<AttemptOutcome>();
+  outcome->record = history_.attempts().back();
+  outcome->view_times = job.view_times;
+  if (result.usable) {
+    outcome->cam_from_world = result.cam_from_world;
+    for (const PlaneEstimate& plane : result.planes) {
+      std::vector<Eigen::Vector2d> points;
+      for (const auto& [track, uv] : plane.points) points.push_back(uv);
+      outcome->boards.push_back(
+          AttachBoard(plane.id, plane.world_from_plane, points, options_.board));
+    }
+  }
+  const Verdict verdict = outcome->record.verdict;
+  if ((verdict == Verdict::kAccepted || verdict == Verdict::kNewRegime) &&
+      EstimatesDistortion(outcome->record)) {
+    distortion_accepted_ = true;
+  }
+  filtered_ = history_.Current(job.t_ns);
+  return outcome;
+}
+
+FrameSnapshot CalibrationPipeline::Process(int64_t t_ns, const cv::Mat& raw) {
+  std::optional<CalibrationJob> job;
+  FrameSnapshot snapshot = ProcessFrame(t_ns, raw, &job);
+  if (!job) return snapshot;
+  auto start = std::chrono::steady_clock::now();
+  const SelfCalibrationResult result = SelfCalibrate(job->material, job->prior, options_.calibration);
+  snapshot.timing.calibration_ms = MillisecondsSince(start);
+  start = std::chrono::steady_clock::now();
+  snapshot.attempt = Judge(*job, result);
+  snapshot.calibration = filtered_;
+  snapshot.timing.history_ms = MillisecondsSince(start);
+  return snapshot;
+}
+
+}  // namespace autocal

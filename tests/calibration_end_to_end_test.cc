@@ -1,0 +1,186 @@
+// End-to-end: simulated 640x480 recordings through boxes 1-10 and the history, as
+// `autocal run` processes them, against the simulator's ground truth. The tolerances are
+// those of the calibration issue; each assertion states its own. The images carry the
+// simulator's sensor noise (1.5 grey levels), the tracks whatever noise Lucas-Kanade makes
+// of it.
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "devices/offline_runner.h"
+#include "devices/sim/simulator.h"
+#include "pipeline/calibration_error.h"
+#include "pipeline/history_store.h"
+#include "test_util.h"
+
+namespace autocal {
+namespace {
+
+struct ScenarioRun {
+  RunReport report;
+  StoredHistory stored;
+  std::vector<GroundTruthFrame> truth;
+};
+
+ScenarioRun RunScenario(const std::string& spec, const std::optional<CameraIntrinsics>& prior = {}) {
+  const test::TempDir dir;
+  const std::unique_ptr<Sequence> sequence = MakeSimulatedSequence(ParseScenarioSpec(spec));
+  RunSettings settings;
+  settings.prior = prior;
+  settings.history_path = dir / "history.sqlite";
+  ScenarioRun run;
+  run.report = RunSequence(*sequence, settings);
+  run.stored = HistoryStore(settings.history_path, HistoryStore::Mode::kOpenExisting).Load();
+  run.truth = *sequence->ground_truth();
+  return run;
+}
+
+// The issue's wrong start: fx, fy 5% too large, cx +15 px, cy -10 px, no distortion.
+CameraIntrinsics WrongStart(const CameraIntrinsics& truth) {
+  CameraIntrinsics wrong = truth;
+  wrong.fx *= 1.05;
+  wrong.fy *= 1.05;
+  wrong.cx += 15.0;
+  wrong.cy -= 10.0;
+  wrong.k1 = wrong.k2 = wrong.k3 = wrong.p1 = wrong.p2 = 0.0;
+  return wrong;
+}
+
+int Count(const RunReport& report, Verdict verdict) {
+  const auto found = report.verdicts.find(verdict);
+  return found == report.verdicts.end() ? 0 : found->second;
+}
+
+void ExpectConvergesFromAWrongStart(const std::string& lens) {
+  const Scenario scenario = ParseScenarioSpec("office,lens=" + lens);
+  const CameraIntrinsics truth = MakeSimulatedSequence(scenario)->ground_truth()->front().intrinsics;
+  const ScenarioRun run = RunScenario("office,lens=" + lens + ",seconds=20", WrongStart(truth));
+  ASSERT_TRUE(run.report.truth);
+  const CalibrationError& e = run.report.truth->final;
+  EXPECT_LT(std::abs(e.fx_percent), 0.5) << "fx within 0.5% of the truth after 20 s";
+  EXPECT_LT(std::abs(e.fy_percent), 0.5) << "fy within 0.5% of the truth after 20 s";
+  EXPECT_LT(std::abs(e.cx_px), 2.0) << "cx within 2 px";
+  EXPECT_LT(std::abs(e.cy_px), 2.0) << "cy within 2 px";
+  EXPECT_LT(e.distortion_px, 0.5)
+      << "distortion within 0.5 px of the true one out to 90% of the half-diagonal";
+  EXPECT_GT(run.report.final_rms_px, 0.0);
+  EXPECT_LT(run.report.final_rms_px, 0.3) << "reprojection error below 0.3 px RMS";
+  // A circular estimator would stay at the start: the start is far outside the tolerance.
+  const CalibrationError start = CompareCalibration(WrongStart(truth), truth);
+  EXPECT_FALSE(CalibrationTolerance{}.Admits(start));
+  // The history file holds every attempt the run judged.
+  EXPECT_EQ(int(run.stored.attempts.size()), run.report.attempts);
+}
+
+TEST(CalibrationEndToEnd, SonnarConvergesFromAWrongStart) { ExpectConvergesFromAWrongStart("sonnar"); }
+
+TEST(CalibrationEndToEnd, TessarConvergesFromAWrongStart) { ExpectConvergesFromAWrongStart("tessar"); }
+
+void ExpectFollowsDrift(const std::string& lens) {
+  const ScenarioRun run = RunScenario("drift,lens=" + lens + ",seconds=20");
+  ASSERT_TRUE(run.report.truth);
+  const GroundTruthReport& truth = *run.report.truth;
+  // The lens drifts from the first frame: the truth moves away from the pre-mission
+  // calibration (fx 2% over 60 s), and the output must follow it.
+  const CalibrationError drifted =
+      CompareCalibration(run.truth.front().intrinsics, run.truth.back().intrinsics);
+  EXPECT_GT(std::abs(drifted.fx_percent), 0.5) << "the truth drifts beyond the tolerance";
+  ASSERT_TRUE(truth.converged_at_s);
+  ASSERT_TRUE(truth.worst_after_convergence);
+  const CalibrationError& worst = *truth.worst_after_convergence;
+  EXPECT_LT(std::abs(worst.fx_percent), 0.5) << "fx within 0.5% of the drifting truth";
+  EXPECT_LT(std::abs(worst.fy_percent), 0.5) << "fy within 0.5% of the drifting truth";
+  EXPECT_LT(std::abs(worst.cx_px), 2.0) << "cx within 2 px of the drifting truth";
+  EXPECT_LT(std::abs(worst.cy_px), 2.0) << "cy within 2 px of the drifting truth";
+  EXPECT_EQ(run.report.alarms.size(), 0u) << "a gradual drift raises no alarm";
+}
+
+TEST(CalibrationEndToEnd, SonnarFollowsDrift) { ExpectFollowsDrift("sonnar"); }
+
+TEST(CalibrationEndToEnd, TessarFollowsDrift) { ExpectFollowsDrift("tessar"); }
+
+void ExpectCatchesAJolt(const std::string& lens) {
+  const ScenarioRun run = RunScenario("jolt,lens=" + lens + ",seconds=20");
+  ASSERT_TRUE(run.report.truth);
+  // The jolt: the first frame whose focal length differs from the first one's.
+  int64_t jolt_ns = 0;
+  for (const GroundTruthFrame& frame : run.truth) {
+    if (frame.intrinsics.fx != run.truth.front().intrinsics.fx) {
+      jolt_ns = frame.t_ns;
+      break;
+    }
+  }
+  ASSERT_GT(jolt_ns, 0);
+  ASSERT_FALSE(run.report.alarms.empty()) << "the jolt raises an alarm";
+  const Alarm& alarm = run.report.alarms.front();
+  EXPECT_GE(alarm.t_ns, jolt_ns) << "no alarm before the jolt";
+  EXPECT_LE(alarm.t_ns - jolt_ns, int64_t(3e9)) << "the alarm within 3 s of the jolt";
+  // Within 10 s the output is back within 0.5% of the new focal length, and stays there.
+  const GroundTruthReport& truth = *run.report.truth;
+  for (size_t i = 0; i < truth.t_ns.size(); ++i) {
+    if (truth.t_ns[i] < jolt_ns + int64_t(10e9)) continue;
+    ASSERT_LT(std::abs(truth.errors[i].fx_percent), 0.5)
+        << "fx within 0.5% of the truth 10 s after the jolt, at " << 1e-9 * truth.t_ns[i] << " s";
+  }
+  EXPECT_GE(Count(run.report, Verdict::kNewRegime), 1) << "the jolt starts a new regime";
+}
+
+TEST(CalibrationEndToEnd, SonnarCatchesAJolt) { ExpectCatchesAJolt("sonnar"); }
+
+TEST(CalibrationEndToEnd, TessarCatchesAJolt) { ExpectCatchesAJolt("tessar"); }
+
+void ExpectRidesOutATransient(const std::string& lens) {
+  const std::string spec = "transient,lens=" + lens + ",seconds=16";
+  const ScenarioRun run = RunScenario(spec);
+  const Scenario scenario = ParseScenarioSpec(spec);
+  ASSERT_FALSE(scenario.disturbances.empty());
+  double burst_start = 1e9, burst_end = 0.0;
+  for (const Disturbance& disturbance : scenario.disturbances) {
+    burst_start = std::min(burst_start, disturbance.start.Seconds(scenario.seconds));
+    burst_end = std::max(burst_end, disturbance.end.Seconds(scenario.seconds));
+  }
+  const int64_t t0 = run.truth.front().t_ns;
+  int during = 0;
+  for (const AttemptRecord& attempt : run.stored.attempts) {
+    const double t = 1e-9 * double(attempt.t_ns - t0);
+    // The window of an attempt reaches back window_s: it holds burst frames until then.
+    if (t < burst_start || t > burst_end + MaterialOptions{}.window_s) continue;
+    ++during;
+    EXPECT_NE(attempt.verdict, Verdict::kAccepted)
+        << "no update accepted from a window with fog or noise, at " << t << " s";
+  }
+  EXPECT_GT(during, 0) << "attempts were made during the burst";
+  const GroundTruthReport& truth = *run.report.truth;
+  for (size_t i = 0; i < truth.t_ns.size(); ++i) {
+    EXPECT_LT(std::abs(truth.errors[i].fx_percent), 0.2)
+        << "the output within 0.2% of the truth, at " << 1e-9 * (truth.t_ns[i] - t0) << " s";
+  }
+}
+
+TEST(CalibrationEndToEnd, SonnarRidesOutATransient) { ExpectRidesOutATransient("sonnar"); }
+
+TEST(CalibrationEndToEnd, TessarRidesOutATransient) { ExpectRidesOutATransient("tessar"); }
+
+TEST(CalibrationEndToEnd, StaticCameraMakesNoUpdateAndSaysWhy) {
+  const ScenarioRun run = RunScenario("static,seconds=6");
+  EXPECT_EQ(Count(run.report, Verdict::kAccepted), 0) << "no update accepted from a static camera";
+  EXPECT_EQ(Count(run.report, Verdict::kNewRegime), 0);
+  EXPECT_GT(run.report.attempts, 0) << "attempts were made and judged";
+  for (const AttemptRecord& attempt : run.stored.attempts) {
+    EXPECT_EQ(attempt.verdict, Verdict::kNoUpdate);
+    EXPECT_NE(attempt.reason.find("no update: "), std::string::npos) << attempt.reason;
+  }
+  // The output is the pre-mission calibration, untouched.
+  const CalibrationError moved =
+      CompareCalibration(run.report.final.calibration, run.truth.front().intrinsics);
+  EXPECT_LT(std::abs(moved.fx_percent), 1e-9);
+  EXPECT_LT(std::abs(moved.cx_px), 1e-9);
+  EXPECT_LT(moved.distortion_px, 1e-9);
+}
+
+}  // namespace
+}  // namespace autocal

@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# `autocal run` end to end on a short simulated walk: history, summary and export written,
+# progress shown, and every kind of bad input refused with a message and the right code.
+set -euo pipefail
+autocal="$1"
+dir="$(mktemp -d)"
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+"$autocal" --help | grep -qE '^  run ' || fail "--help lists run"
+
+"$autocal" run --input "sim:office,seconds=4,resolution=320x240" --history "$dir/h.sqlite" \
+  --summary "$dir/summary.json" --export "$dir/final.yaml" --format opencv \
+  >"$dir/out" 2>"$dir/progress"
+cat "$dir/out"
+grep -q '120/120 frames (100%)' "$dir/progress" || fail "progress shown: $(tail -3 "$dir/progress")"
+grep -qE '^120 frames \(4\.0 s of recording\)' "$dir/out" || fail "frames reported"
+grep -qE '^attempts [1-9]' "$dir/out" || fail "attempts were made"
+grep -q '^error against the truth:' "$dir/out" || fail "error against the truth reported"
+for key in '"frames": 120' '"seconds":' '"fps":' '"final": {' '"rms_px":' '"updates": {"attempted":' \
+  '"alarms": \[' '"timing_ms": {' '"lines": {"median":' '"calibration": {"median":' \
+  '"error": {"final": {"fx_percent":'; do
+  grep -q "$key" "$dir/summary.json" || fail "summary has $key: $(cat "$dir/summary.json")"
+done
+grep -q 'camera_matrix' "$dir/final.yaml" || fail "export written"
+[[ -s "$dir/h.sqlite" ]] || fail "history written"
+
+# The exported calibration is a valid prior for another run.
+"$autocal" run --input "sim:office,seconds=2,resolution=320x240" --prior "$dir/final.yaml" \
+  >"$dir/out2" 2>/dev/null || fail "a run from the exported prior"
+grep -qE '^prior +fx 20[0-9]\.' "$dir/out2" || fail "prior printed: $(cat "$dir/out2")"
+
+"$autocal" run --print-settings | grep -q '^material.window_s = ' || fail "--print-settings"
+"$autocal" run --print-settings >"$dir/s.settings"
+sed -i 's/^material.window_s = .*/material.window_s = 3/' "$dir/s.settings"
+"$autocal" run --settings "$dir/s.settings" --set material.max_lines=10 --print-settings \
+  >"$dir/s2.settings"
+grep -qx 'material.window_s = 3' "$dir/s2.settings" || fail "--settings read"
+grep -qx 'material.max_lines = 10' "$dir/s2.settings" || fail "--set applied after --settings"
+
+expect() {  # expect CODE PATTERN ARGS...: exit code and a message on stderr.
+  local code=$1 pattern=$2
+  shift 2
+  set +e
+  "$autocal" run "$@" >/dev/null 2>"$dir/err"
+  local got=$?
+  set -e
+  [[ $got -eq $code ]] || fail "run $* exits $got, expected $code: $(cat "$dir/err")"
+  grep -q -- "$pattern" "$dir/err" || fail "run $*: expected '$pattern' in: $(cat "$dir/err")"
+}
+expect 2 '--input is required'
+expect 2 '--export and --format go together' --input sim:static --export "$dir/x.yaml"
+expect 1 'no-such-dir' --input "$dir/no-such-dir"
+expect 1 "unknown option 'material.windw_s'" --input sim:static --set material.windw_s=3
+expect 1 'must be in' --input sim:static --set material.window_s=-1
+expect 1 'unknown calibration format' --input sim:static --export "$dir/x" --format matlab
+expect 1 'already holds a calibration history' --input sim:static --history "$dir/h.sqlite"
+printf 'material.window_s 3\n' >"$dir/bad.settings"
+expect 1 'bad.settings:1:' --input sim:static --settings "$dir/bad.settings"
+# A 320x240 calibration for 640x480 frames.
+"$autocal" run --input "sim:static,seconds=1,resolution=640x480" --prior "$dir/final.yaml" \
+  >/dev/null 2>"$dir/err" && fail "a 320x240 prior accepted for 640x480 frames"
+grep -q 'is for 320x240 images' "$dir/err" || fail "size mismatch message: $(cat "$dir/err")"
+echo PASS
