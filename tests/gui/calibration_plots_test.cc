@@ -316,8 +316,27 @@ void CalibrationPlotsTest::markersDrawnWhereTheValuesAre() {
   }
   QVERIFY2(alarm_pixels > (alarm_bottom.y() - alarm_top.y()) / 3,
            qPrintable(QString::number(alarm_pixels)));
-  // The ground truth has a point per second.
+  // The ground truth has a point per second, drawn as a line: across the knock (between
+  // the attempts at 44 and 45 s) it runs from the old focal length to the new one, where
+  // neither markers nor the trend are.
   QCOMPARE(fx.truth()->count(), kLastAt);
+  int truth_hits = 0;
+  for (double f = 0.1; f < 0.95; f += 0.1) {
+    const double value = (1.0 - f) * Truth(kKnockAt - 1).fx + f * Truth(kKnockAt).fx;
+    truth_hits +=
+        DrawnNear(fx_image, fx.positionOf(seconds(kKnockAt - 1) + f, value), TruthColor());
+  }
+  QVERIFY2(truth_hits >= 5, qPrintable(QString::number(truth_hits)));
+  // The cursor is a black line at its time.
+  plots->setCursorTime(seconds(12) + 0.5);
+  plots->redrawNow();
+  const QImage with_cursor = fx.grab().toImage();
+  const QPoint cursor_at =
+      fx.positionOf(seconds(12) + 0.5,
+                    fx.valueAxis()->min() + 0.9 * (fx.valueAxis()->max() - fx.valueAxis()->min()));
+  QVERIFY(DrawnNear(with_cursor, cursor_at, QColor(20, 20, 20)));
+  QVERIFY(!DrawnNear(fx_image, cursor_at, QColor(20, 20, 20)));
+  plots->setCursorTime(-100.0);
 
   // Hiding the rejected attempts takes the red marker away and rescales to the rest.
   const double top_with_rejected = fx.valueAxis()->max();
