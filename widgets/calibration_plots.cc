@@ -18,8 +18,8 @@
 #include <QPainter>
 #include <QPixmap>
 #include <QPushButton>
-#include <QScrollArea>
 #include <QResizeEvent>
+#include <QScrollArea>
 #include <QSvgGenerator>
 #include <QToolTip>
 #include <QVBoxLayout>
@@ -365,8 +365,10 @@ CalibrationPlots::CalibrationPlots(QWidget* parent) : QWidget(parent) {
 QSize CalibrationPlots::sizeHint() const { return {900, 300}; }
 
 void CalibrationPlots::setSeries(std::shared_ptr<const CalibrationSeries> series) {
+  const bool same_file = series_ && series && series_->path == series->path;
+  const bool whole_in_view = std::pair(t0_, t1_) == fullRange();
   series_ = std::move(series);
-  rebuild();
+  rebuild(same_file && !whole_in_view);
 }
 
 void CalibrationPlots::setTimeOrigin(int64_t origin_ns) {
@@ -386,7 +388,7 @@ double CalibrationPlots::toSeconds(int64_t t_ns) const {
   return static_cast<double>(t_ns - origin_ns_) * 1e-9;
 }
 
-void CalibrationPlots::rebuild() {
+void CalibrationPlots::rebuild(bool keep_view) {
   const std::vector<AttemptRecord> none;
   const std::vector<AttemptRecord>& attempts = series_ ? series_->stored.attempts : none;
   if (!origin_set_) origin_ns_ = attempts.empty() ? 0 : attempts.front().t_ns;
@@ -442,7 +444,11 @@ void CalibrationPlots::rebuild() {
             .arg(stored.alarms.size())
             .arg(stored.options.max_rms_px, 0, 'f', 2));
   }
-  resetZoom();
+  if (keep_view) {
+    scheduleRedraw();
+  } else {
+    resetZoom();
+  }
 }
 
 std::pair<double, double> CalibrationPlots::fullRange() const {

@@ -106,7 +106,8 @@ class CalibrationPlots : public QWidget {
  public:
   explicit CalibrationPlots(QWidget* parent = nullptr);
 
-  // Shows `series` (null: nothing) over its whole time span.
+  // Shows `series` (null: nothing) over its whole time span. A newer read of the file
+  // shown keeps the view when it was zoomed in, and shows the whole of it otherwise.
   void setSeries(std::shared_ptr<const CalibrationSeries> series);
   const CalibrationSeries* series() const { return series_.get(); }
   // Times are drawn in seconds since `origin_ns` (the recording's start, so that the cursor
@@ -156,7 +157,8 @@ class CalibrationPlots : public QWidget {
     std::vector<double> t, v;
   };
 
-  void rebuild();
+  // Reshapes the series and truth for drawing; shows everything unless `keep_view`.
+  void rebuild(bool keep_view = false);
   void exportDialog();
   void zoom(double t_s, double factor);
   void pan(double dt_s);

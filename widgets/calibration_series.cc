@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <exception>
 
+#include <QDateTime>
 #include <QFile>
+#include <QFileInfo>
 #include <QtConcurrent/QtConcurrentRun>
 
 #include "pipeline/history_replay.h"
@@ -39,13 +41,39 @@ CalibrationSeries MakeCalibrationSeries(StoredHistory stored) {
 
 HistoryOpener::HistoryOpener(QObject* parent) : QObject(parent) {
   connect(&watcher_, &QFutureWatcher<Result>::finished, this, &HistoryOpener::onFinished);
+  follow_timer_.setInterval(kFollowIntervalMs);
+  connect(&follow_timer_, &QTimer::timeout, this, &HistoryOpener::poll);
 }
 
 HistoryOpener::~HistoryOpener() { watcher_.waitForFinished(); }
 
+QString HistoryOpener::Signature(const QString& path) {
+  QString signature;
+  for (const QString& file : {path, path + QStringLiteral("-wal")}) {
+    const QFileInfo info(file);
+    signature += QStringLiteral("%1@%2;")
+                     .arg(info.exists() ? info.size() : -1)
+                     .arg(info.exists() ? info.lastModified().toMSecsSinceEpoch() : 0);
+  }
+  return signature;
+}
+
 void HistoryOpener::open(const QString& path) {
-  watcher_.setFuture(QtConcurrent::run([path]() -> Result {
-    Result result{path, nullptr, {}};
+  follow_timer_.stop();
+  followed_.clear();
+  start(path, false);
+}
+
+void HistoryOpener::poll() {
+  if (followed_.isEmpty() || watcher_.isRunning()) return;
+  if (Signature(followed_) != signature_) start(followed_, true);
+}
+
+void HistoryOpener::start(const QString& path, bool update) {
+  // Taken before reading: a change during the read is seen at the next look.
+  const QString signature = Signature(path);
+  watcher_.setFuture(QtConcurrent::run([path, signature, update]() -> Result {
+    Result result{path, signature, update, nullptr, {}};
     try {
       const std::string file = QFile::encodeName(path).toStdString();
       auto series = std::make_shared<CalibrationSeries>(
@@ -61,11 +89,21 @@ void HistoryOpener::open(const QString& path) {
 
 void HistoryOpener::onFinished() {
   const Result result = watcher_.result();
-  if (result.series) {
-    emit opened(result.path, result.series);
-  } else {
-    emit failed(result.path, result.error);
+  if (result.update) {
+    // The file was opened again meanwhile (or another one): this read is stale.
+    if (result.path != followed_) return;
+    signature_ = result.signature;
+    if (result.series) emit updated(result.path, result.series);
+    return;
   }
+  if (!result.series) {
+    emit failed(result.path, result.error);
+    return;
+  }
+  followed_ = result.path;
+  signature_ = result.signature;
+  follow_timer_.start();
+  emit opened(result.path, result.series);
 }
 
 }  // namespace autocal

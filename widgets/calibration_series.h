@@ -12,6 +12,7 @@
 #include <QFutureWatcher>
 #include <QObject>
 #include <QString>
+#include <QTimer>
 
 #include "pipeline/calibration_history.h"
 #include "pipeline/history_store.h"
@@ -43,11 +44,15 @@ inline constexpr int kMaxTrendSamples = 20000;
 // pre-mission one. Throws Error when the history cannot be replayed.
 CalibrationSeries MakeCalibrationSeries(StoredHistory stored);
 
-// Opens a history file (HistoryStore) off the GUI thread and replays it.
+// Opens a history file (HistoryStore) off the GUI thread and replays it. Once opened, the
+// file is followed: when it changes (a run still appending to it), it is read again.
 class HistoryOpener : public QObject {
   Q_OBJECT
 
  public:
+  // How often a followed file is looked at.
+  static constexpr int kFollowIntervalMs = 1000;
+
   explicit HistoryOpener(QObject* parent = nullptr);
   ~HistoryOpener() override;
 
@@ -58,17 +63,29 @@ class HistoryOpener : public QObject {
   void opened(const QString& path, std::shared_ptr<const autocal::CalibrationSeries> series);
   // `message` is the full error text (it names the file).
   void failed(const QString& path, const QString& message);
+  // The followed file changed and was read again. A failure to read it again is not
+  // reported: the history shown stays, and the next change is tried.
+  void updated(const QString& path, std::shared_ptr<const autocal::CalibrationSeries> series);
 
  private:
   struct Result {
     QString path;
+    QString signature;  // Of the file when reading began.
+    bool update = false;
     std::shared_ptr<const CalibrationSeries> series;
     QString error;
   };
 
+  // Sizes and times of the file and its write-ahead log: they change with every commit.
+  static QString Signature(const QString& path);
+  void start(const QString& path, bool update);
+  void poll();
   void onFinished();
 
   QFutureWatcher<Result> watcher_;
+  QTimer follow_timer_;
+  QString followed_;   // The file opened last; empty when none.
+  QString signature_;  // Its signature when last read.
 };
 
 }  // namespace autocal

@@ -236,8 +236,10 @@ HistoryTable::HistoryTable(QWidget* parent)
 }
 
 void HistoryTable::setSeries(std::shared_ptr<const CalibrationSeries> series) {
+  // A newer read of the same file keeps the widths the user may have set.
+  const bool same_file = model_->series() && series && model_->series()->path == series->path;
   model_->setSeries(std::move(series));
-  view_->resizeColumnsToContents();
+  if (!same_file) view_->resizeColumnsToContents();
   updateCount();
 }
 

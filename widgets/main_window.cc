@@ -248,6 +248,7 @@ void MainWindow::connectControllers() {
   connect(opener_, &SequenceOpener::failed, this, &MainWindow::onOpenFailed);
   connect(history_opener_, &HistoryOpener::opened, this, &MainWindow::onHistoryOpened);
   connect(history_opener_, &HistoryOpener::failed, this, &MainWindow::onHistoryFailed);
+  connect(history_opener_, &HistoryOpener::updated, this, &MainWindow::onHistoryUpdated);
 
   connect(playback_, &PlaybackController::frameChanged, loader_, &FrameLoader::request);
   connect(playback_, &PlaybackController::frameChanged, this, &MainWindow::onFrameChanged);
@@ -425,6 +426,20 @@ void MainWindow::onHistoryFailed(const QString& path, const QString& message) {
   box->setAttribute(Qt::WA_DeleteOnClose);
   box->open();
   emit historyFailed(path, message);
+}
+
+void MainWindow::onHistoryUpdated(const QString& path,
+                                  std::shared_ptr<const CalibrationSeries> series) {
+  const CalibrationSeries* shown = calibration_plots_->series();
+  const size_t before = shown ? shown->stored.attempts.size() : 0;
+  const size_t now = series->stored.attempts.size();
+  if (now != before) {
+    log(tr("History %1 grew: %2 attempts (%3 new)")
+            .arg(path, QString::number(now),
+                 QString::number(static_cast<long long>(now) - static_cast<long long>(before))));
+  }
+  calibration_plots_->setSeries(series);
+  history_table_->setSeries(std::move(series));
 }
 
 void MainWindow::seekToTime(double seconds) {

@@ -81,6 +81,7 @@ class MainWindow : public QMainWindow {
   void onOpenFailed(const QString& source, const QString& message);
   void onHistoryOpened(const QString& path, std::shared_ptr<const CalibrationSeries> series);
   void onHistoryFailed(const QString& path, const QString& message);
+  void onHistoryUpdated(const QString& path, std::shared_ptr<const CalibrationSeries> series);
   // Plots and table go where the video would be at `seconds`, or there alone without video.
   void seekToTime(double seconds);
   void onFrameChanged(int index);

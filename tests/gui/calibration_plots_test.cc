@@ -183,6 +183,7 @@ class CalibrationPlotsTest : public QObject {
   void tableFiltersAndSorts();
   void tableExportsHistoryAndCalibration();
   void mainWindowOpensHistory();
+  void followsAHistoryBeingWritten();
   void staysFastWithHoursOfHistory();
 
  private:
@@ -619,6 +620,59 @@ void CalibrationPlotsTest::mainWindowOpensHistory() {
   QTest::mouseClick(fx.viewport(), Qt::LeftButton, Qt::NoModifier,
                     fx.positionOf(12.0, fx.valueAxis()->min()) + QPoint(0, -5));
   QVERIFY(std::abs(window.calibrationPlots()->cursorTime() - 12.0) < 0.3);
+}
+
+void CalibrationPlotsTest::followsAHistoryBeingWritten() {
+  // A run appending to its history while the workbench shows it.
+  const QString path = dir_.filePath(QStringLiteral("growing.sqlite"));
+  CalibrationHistory history(Premission());
+  HistoryStore store(path.toStdString());
+  int second = 0;
+  auto append = [&](int count) {
+    for (int i = 0; i < count; ++i) {
+      ++second;
+      SelfCalibrationResult r;
+      r.usable = true;
+      r.estimate = Truth(second);
+      r.covariance = Eigen::MatrixXd::Identity(2, 2) * 0.09;
+      r.free_parameters = {kFx, kCx};
+      r.rms_px = 0.4;
+      history.Judge(kStartNs + second * kSecond, r);
+      store.Record(history);
+    }
+  };
+  append(10);
+
+  MainWindow window;
+  window.resize(1500, 1000);
+  window.show();
+  QVERIFY(QTest::qWaitForWindowExposed(&window));
+  QSignalSpy opened(&window, &MainWindow::historyOpened);
+  window.openHistory(path);
+  QVERIFY(opened.wait(kOpenTimeoutMs));
+  CalibrationPlots& plots = *window.calibrationPlots();
+  QCOMPARE(plots.series()->stored.attempts.size(), size_t{10});
+
+  // Showing the whole history: the view grows with it.
+  append(10);
+  QTRY_COMPARE_WITH_TIMEOUT(plots.series()->stored.attempts.size(), size_t{20},
+                            5 * HistoryOpener::kFollowIntervalMs);
+  QCOMPARE(window.historyTable()->filter()->rowCount(), 20);
+  QVERIFY(plots.visibleEnd() > 19.0);
+  QCOMPARE(plots.chart(kFx)->markers(MarkerClass::kAccepted)->count() +
+               plots.chart(kFx)->markers(MarkerClass::kRejected)->count(),
+           20);
+
+  // Zoomed in: the view stays where the user put it.
+  plots.setVisibleRange(2.0, 8.0);
+  append(5);
+  QTRY_COMPARE_WITH_TIMEOUT(plots.series()->stored.attempts.size(), size_t{25},
+                            5 * HistoryOpener::kFollowIntervalMs);
+  QCOMPARE(plots.visibleStart(), 2.0);
+  QCOMPARE(plots.visibleEnd(), 8.0);
+  QCOMPARE(window.historyTable()->filter()->rowCount(), 25);
+  // Opening was announced once; the updates are not new openings.
+  QCOMPARE(opened.count(), 1);
 }
 
 void CalibrationPlotsTest::staysFastWithHoursOfHistory() {
