@@ -32,8 +32,8 @@ struct AcceptanceOptions {
   double distortion_radius_fraction = 0.8;
   double window_s = 60.0;     // The trend fits the accepted attempts this far back from the newest.
   int max_order = 2;          // Highest order of the trend (0 constant, 1 linear, 2 quadratic).
-  int min_points_linear = 3;  // Fewer accepted attempts in the window: a constant trend.
-  int min_points_quadratic = 6;  // Fewer: at most a linear trend.
+  int min_points_linear = 10;  // Fewer accepted attempts in the window: a constant trend.
+  int min_points_quadratic = 20;  // Fewer: at most a linear trend.
   // A higher order is used only when it lowers some parameter's chi-square by this much
   // (scaled by the scatter left), so noise is averaged rather than followed.
   double order_evidence_chi2 = 9.0;
