@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <chrono>
 
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
 namespace autocal {
 namespace {
 
@@ -21,6 +24,14 @@ bool MotionStageOptions::Check(std::string* error) const {
   }
   if (!planes.Check(&nested)) {
     if (error) *error = "planes." + nested;
+    return false;
+  }
+  if (lost_planes_kept < 0) {
+    if (error) *error = "lost_planes_kept must not be negative";
+    return false;
+  }
+  if (refind_min_matches < 4) {
+    if (error) *error = "refind_min_matches must be at least 4 (a homography needs 4 points)";
     return false;
   }
   // Box 6 looks back its baselines into every track's history.
@@ -70,9 +81,94 @@ MotionSnapshot MotionStage::Process(int64_t t_ns, const cv::Mat& gray,
   planes_.Update(t_ns, flow_.tracks(), camera);
   snapshot.planes_ms = MillisecondsSince(start);
 
+  start = std::chrono::steady_clock::now();
+  snapshot.planes = Refind(gray, camera);
+  snapshot.refind_ms = MillisecondsSince(start);
+
   snapshot.tracks = flow_.tracks();
-  snapshot.planes = planes_.planes();
   return snapshot;
+}
+
+std::vector<DominantPlane> MotionStage::Refind(const cv::Mat& gray,
+                                               const CameraIntrinsics& camera) {
+  std::vector<DominantPlane> planes = planes_.planes();
+  auto known_as = [&](int id) {
+    const auto it = known_as_.find(id);
+    return it == known_as_.end() ? id : it->second;
+  };
+  // Box 4's keypoints near a plane's tracks: its outline can take in parts of other
+  // planes, which a plane seen a frame later would match as well.
+  auto keypoints_in = [&](const cv::Mat& image, const DominantPlane& plane,
+                          const CameraIntrinsics& image_camera) {
+    cv::Mat mask = cv::Mat::zeros(image.size(), CV_8U);
+    const int radius = cvRound(3.0 * options_.flow.features.min_distance_px);
+    for (const cv::Point2f& p : plane.points) cv::circle(mask, p, radius, 255, cv::FILLED);
+    LostPlane found;
+    found.id = known_as(plane.id);
+    found.keypoints = DetectKeypoints(image, options_.flow.features, mask);
+    std::vector<cv::Point2f> raw;
+    for (const cv::KeyPoint& k : found.keypoints.keypoints) raw.push_back(k.pt);
+    found.points = UndistortPixels(raw, image_camera);
+    return found;
+  };
+  auto held = [&](int id) {
+    return std::any_of(planes.begin(), planes.end(),
+                       [&](const DominantPlane& plane) { return plane.id == id; });
+  };
+
+  if (options_.lost_planes_kept > 0) {
+    for (auto it = largest_.begin(); it != largest_.end();) {
+      if (held(it->first)) {
+        ++it;
+        continue;
+      }
+      LostPlane lost = keypoints_in(it->second.gray, it->second.plane, it->second.camera);
+      known_as_.erase(it->first);
+      it = largest_.erase(it);
+      if (int(lost.points.size()) < options_.refind_min_matches) continue;
+      lost_.push_back(std::move(lost));
+      while (int(lost_.size()) > options_.lost_planes_kept) lost_.pop_front();
+    }
+    // Box 6's ids only grow: a larger one than it gave before is a new plane.
+    for (const DominantPlane& plane : planes) {
+      if (plane.id <= newest_id_ || lost_.empty()) continue;
+      const LostPlane now = keypoints_in(gray, plane, camera);
+      int best = -1, best_inliers = 0;
+      for (size_t k = 0; k < lost_.size(); ++k) {
+        const std::vector<cv::DMatch> matches =
+            MatchKeypoints(lost_[k].keypoints, now.keypoints, options_.flow.features);
+        if (int(matches.size()) < options_.refind_min_matches) continue;
+        std::vector<cv::Point2f> from, to;
+        for (const cv::DMatch& m : matches) {
+          from.push_back(lost_[k].points[m.queryIdx]);
+          to.push_back(now.points[m.trainIdx]);
+        }
+        std::vector<uchar> inliers;
+        const cv::Mat h = cv::findHomography(from, to, cv::RANSAC,
+                                             options_.planes.shot_inlier_threshold_px, inliers,
+                                             options_.planes.ransac_iterations);
+        const int count = h.empty() ? 0 : cv::countNonZero(inliers);
+        if (count >= options_.refind_min_matches && count > best_inliers) {
+          best = int(k);
+          best_inliers = count;
+        }
+      }
+      if (best >= 0) {
+        known_as_[plane.id] = lost_[best].id;
+        lost_.erase(lost_.begin() + best);
+      }
+    }
+    cv::Mat copy;  // The caller's pixels may change after this call.
+    for (const DominantPlane& plane : planes) {
+      const auto it = largest_.find(plane.id);
+      if (it != largest_.end() && it->second.plane.area_fraction >= plane.area_fraction) continue;
+      if (copy.empty()) copy = gray.clone();
+      largest_[plane.id] = {plane, copy, camera};
+    }
+  }
+  for (const DominantPlane& plane : planes) newest_id_ = std::max(newest_id_, plane.id);
+  for (DominantPlane& plane : planes) plane.id = known_as(plane.id);
+  return planes;
 }
 
 }  // namespace autocal

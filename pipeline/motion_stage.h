@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,6 +22,12 @@ namespace autocal {
 struct MotionStageOptions {
   FlowOptions flow;     // Boxes 4 (flow.features) and 5.
   PlaneOptions planes;  // Box 6.
+  // A lost plane is remembered by box 4's keypoints around its tracks in the frame where
+  // it filled most of the image; a new plane whose keypoints match a remembered one's by a
+  // homography (within planes.shot_inlier_threshold_px) gets its id back. At most this
+  // many are remembered, the latest (0: planes are not re-found).
+  int lost_planes_kept = 16;
+  int refind_min_matches = 20;  // Homography inliers to re-find a plane.
 
   // Checks this struct and every nested one; the message names the field.
   bool Check(std::string* error) const;
@@ -41,12 +49,15 @@ struct MotionSnapshot {
   // Live tracks with their recent history; a track's flow vector runs from FramesAgo(1)
   // to current() (tracks started in this frame have none).
   std::vector<Track> tracks;
+  // Box 6's planes; one lost and seen again has the id it had before (see
+  // MotionStageOptions::lost_planes_kept).
   std::vector<DominantPlane> planes;
   int tracks_started = 0;     // New tracks in this frame (box 4).
   int tracks_died = 0;        // Tracks lost in this frame (box 5).
   double features_ms = 0.0;   // Box 4.
   double flow_ms = 0.0;       // Box 5.
   double planes_ms = 0.0;     // Box 6.
+  double refind_ms = 0.0;     // Lost planes remembered and re-found (box 4's keypoints).
   InertialFindings inertial;  // Box 7, filled by the caller.
 
   // The id of the plane holding a track, 0 for none.
@@ -66,9 +77,30 @@ class MotionStage {
   const MotionStageOptions& options() const { return options_; }
 
  private:
+  // Remembers the planes lost since the last frame, and gives new planes that are old
+  // ones seen again their old ids. Returns the planes with the ids they are known by.
+  std::vector<DominantPlane> Refind(const cv::Mat& gray, const CameraIntrinsics& camera);
+
+  // A lost plane: its id and box 4's keypoints around its tracks.
+  struct LostPlane {
+    int id = 0;
+    KeypointSet keypoints;
+    std::vector<cv::Point2f> points;  // Undistorted keypoint positions.
+  };
+
   MotionStageOptions options_;
   FlowTracker flow_;
   PlaneTracker planes_;
+  // Each followed plane as seen where it filled most of the image, by box 6's id.
+  struct View {
+    DominantPlane plane;
+    cv::Mat gray;
+    CameraIntrinsics camera;
+  };
+  std::map<int, View> largest_;
+  std::deque<LostPlane> lost_;   // Oldest first.
+  std::map<int, int> known_as_;  // Box 6's id -> the id of the plane it re-found.
+  int newest_id_ = 0;            // The newest id box 6 has given.
 };
 
 }  // namespace autocal

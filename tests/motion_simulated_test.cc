@@ -58,6 +58,29 @@ struct WalkRun {
   }
 };
 
+// The true plane under a point of the image boxes 4-6 saw, described by `camera`: the
+// labels live in the raw image, taken with `lens`.
+int TruePlane(const cv::Mat& labels, const cv::Point2f& p, const CameraIntrinsics& camera,
+              const CameraIntrinsics& lens) {
+  Eigen::Vector2d raw(p.x, p.y);
+  if (!(camera == lens)) {
+    raw = Project(lens, Eigen::Vector3d((p.x - camera.cx) / camera.fx,
+                                        (p.y - camera.cy) / camera.fy, 1.0));
+  }
+  const int x = int(std::lround(raw.x())), y = int(std::lround(raw.y()));
+  if (x < 0 || y < 0 || x >= labels.cols || y >= labels.rows) return 0;
+  return labels.at<uint16_t>(y, x);
+}
+
+// The true plane most of a plane's tracks lie on, and how many do.
+std::pair<int, int> Identity(const DominantPlane& plane, const cv::Mat& labels,
+                             const CameraIntrinsics& camera, const CameraIntrinsics& lens) {
+  std::map<int, int> votes;
+  for (const cv::Point2f& p : plane.points) ++votes[TruePlane(labels, p, camera, lens)];
+  return *std::max_element(votes.begin(), votes.end(),
+                           [](const auto& a, const auto& b) { return a.second < b.second; });
+}
+
 bool IsWall(const std::string& name) {
   return name.rfind("wall_", 0) == 0 || name.rfind("end_", 0) == 0;
 }
@@ -128,18 +151,6 @@ WalkRun RunWalk(const std::string& scenario_name, const std::string& lens, doubl
     run.planes_ms += snapshot.planes_ms;
 
     // The true plane under a tracked point: labels live in the raw image.
-    auto true_plane = [&](const cv::Point2f& p) -> int {
-      Eigen::Vector2d raw(p.x, p.y);
-      if (rectified) {
-        const Eigen::Vector3d ray((p.x - camera.cx) / camera.fx, (p.y - camera.cy) / camera.fy,
-                                  1.0);
-        raw = Project(truth.intrinsics, ray);
-      }
-      const int x = int(std::lround(raw.x())), y = int(std::lround(raw.y()));
-      if (x < 0 || y < 0 || x >= labels.cols || y >= labels.rows) return 0;
-      return labels.at<uint16_t>(y, x);
-    };
-
     int wall_faced = 0;
     for (const auto& [id, f] : fill) {
       if (id > 0 && IsWall(scene->planes[id - 1].name) && (!wall_faced || f > fill[wall_faced])) {
@@ -152,18 +163,14 @@ WalkRun RunWalk(const std::string& scenario_name, const std::string& lens, doubl
     std::map<int, int> identity;  // Plane id -> true plane id.
     std::set<int> found;
     for (const DominantPlane& plane : snapshot.planes) {
-      std::map<int, int> votes;
-      for (const cv::Point2f& p : plane.points) ++votes[true_plane(p)];
-      const auto majority =
-          std::max_element(votes.begin(), votes.end(),
-                           [](const auto& a, const auto& b) { return a.second < b.second; });
-      identity[plane.id] = majority->first;
-      found.insert(majority->first);
+      const auto [majority, count] = Identity(plane, labels, camera, truth.intrinsics);
+      identity[plane.id] = majority;
+      found.insert(majority);
       run.members += plane.points.size();
-      run.pure_members += majority->first != 0 ? majority->second : 0;
-      if (plane.normal && majority->first != 0) {
+      run.pure_members += majority != 0 ? count : 0;
+      if (plane.normal && majority != 0) {
         const Eigen::Vector3d truth_normal =
-            cam_from_world * scene->planes[majority->first - 1].normal();
+            cam_from_world * scene->planes[majority - 1].normal();
         run.normal_errors_deg.push_back(
             std::acos(std::clamp(plane.normal->dot(truth_normal), -1.0, 1.0)) * 180.0 / M_PI);
       }
@@ -256,6 +263,75 @@ TEST(MotionSimulated, DISABLED_OfficeWalk640x480) {
 
 TEST(MotionSimulated, DISABLED_CorridorWalk640x480) {
   ExpectGood(RunWalk("corridor", "tessar", 10.0, "640x480", true));
+}
+
+// Box 4's keypoints re-find a lost plane: walking slowly round the office while looking
+// 80 deg to either side, the camera turns away from the west wall, whose plane is lost,
+// and back to it 3 s later. The plane found there again must get the wall's old id back,
+// and does not without the keypoints.
+struct Refinding {
+  int gap_end = -1;   // The first frame a plane is on the wall after a second with none.
+  int id_before = 0;  // The id on the wall before the gap.
+  int refound = -1;   // The first frame after the gap where that id is back...
+  bool refound_on_wall = false;  // ...on a plane that lies on the wall.
+};
+
+Refinding WalkAwayAndBack(int lost_planes_kept) {
+  Scenario scenario = LoadScenario("office");
+  ApplyScenarioOverride(&scenario, "lens", "tessar");
+  ApplyScenarioOverride(&scenario, "seconds", "8");
+  ApplyScenarioOverride(&scenario, "resolution", "320x240");
+  scenario.motion.speed_mps = 0.6;
+  scenario.motion.scan_deg = 80.0;
+  scenario.motion.scan_hz = 0.2;
+  const auto sequence = MakeSimulatedSequence(scenario);
+  const std::shared_ptr<const Scene> scene = BuildScene(scenario);
+  int wall = 0;
+  for (const Plane& p : scene->planes) {
+    if (p.name == "wall_west") wall = p.id;
+  }
+  MotionStageOptions options;
+  options.lost_planes_kept = lost_planes_kept;
+  MotionStage stage(options);
+  Rectifier rectifier;
+  Refinding result;
+  int last_seen = -1;
+  for (size_t i = 0; i < sequence->frame_count(); ++i) {
+    const GroundTruthFrame& truth = (*sequence->ground_truth())[i];
+    CameraIntrinsics camera = truth.intrinsics;
+    const cv::Mat gray = rectifier.Geometry(sequence->LoadFrame(i), camera);
+    camera.k1 = camera.k2 = camera.p1 = camera.p2 = camera.k3 = 0.0;
+    const cv::Mat labels = *sequence->LoadPlaneLabels(i);
+    const MotionSnapshot snapshot = stage.Process(truth.t_ns, gray, camera);
+    for (const DominantPlane& plane : snapshot.planes) {
+      const bool on_wall = Identity(plane, labels, camera, truth.intrinsics).first == wall;
+      if (result.gap_end >= 0 && result.refound < 0 && plane.id == result.id_before) {
+        result.refound = int(i);
+        result.refound_on_wall = on_wall;
+      }
+      if (!on_wall) continue;
+      if (result.gap_end < 0 && last_seen >= 0 && int(i) - last_seen > 30) {
+        result.gap_end = int(i);
+      }
+      if (result.gap_end < 0) result.id_before = plane.id;
+      last_seen = int(i);
+    }
+  }
+  std::printf("west wall: plane %d, none on it until frame %d, plane %d again from frame %d%s\n",
+              result.id_before, result.gap_end, result.id_before, result.refound,
+              result.refound_on_wall ? " on the wall" : "");
+  return result;
+}
+
+TEST(MotionSimulated, RefindsWallAfterTurningAway) {
+  const Refinding run = WalkAwayAndBack(MotionStageOptions().lost_planes_kept);
+  ASSERT_GE(run.gap_end, 0) << "the walk must turn away from the wall and back";
+  EXPECT_GE(run.refound, run.gap_end) << "the wall's old id never came back";
+  EXPECT_LE(run.refound, run.gap_end + 30) << "the wall's old id came back over a second late";
+  EXPECT_TRUE(run.refound_on_wall) << "the wall's old id went to another plane";
+  const Refinding without = WalkAwayAndBack(0);
+  EXPECT_EQ(without.gap_end, run.gap_end);
+  EXPECT_LT(without.refound, 0) << "box 6 alone gave the old id back";
 }
 
 }  // namespace
