@@ -106,11 +106,12 @@ void ExtendRange(const QVector<QPointF>& points, double t0, double t1, double* l
 
 // Sets a range and its tick interval without passing through a state with a great many
 // ticks (a wide range with a fine interval), which Qt Charts would lay out one by one.
+// The format goes first: the space for the labels is laid out when the range changes.
 void SetAxis(QValueAxis* axis, double min, double max, double tick) {
+  axis->setLabelFormat(LabelFormat(tick));
   axis->setTickInterval(std::max(axis->tickInterval(), tick));
   axis->setRange(min, max);
   axis->setTickInterval(tick);
-  axis->setLabelFormat(LabelFormat(tick));
 }
 
 }  // namespace
