@@ -105,7 +105,9 @@ std::vector<DominantPlane> MotionStage::Refind(const cv::Mat& gray,
     for (const cv::Point2f& p : plane.points) cv::circle(mask, p, radius, 255, cv::FILLED);
     LostPlane found;
     found.id = known_as(plane.id);
-    found.keypoints = DetectKeypoints(image, options_.flow.features, mask);
+    FeatureOptions features = options_.flow.features;
+    features.descriptor = options_.refind_descriptor;
+    found.keypoints = DetectKeypoints(image, features, mask);
     std::vector<cv::Point2f> raw;
     for (const cv::KeyPoint& k : found.keypoints.keypoints) raw.push_back(k.pt);
     found.points = UndistortPixels(raw, image_camera);
