@@ -15,6 +15,7 @@
 #include "devices/sim/renderer.h"
 #include "devices/sim/scene.h"
 #include "devices/sim/simulator.h"
+#include "pipeline/motion_stage.h"
 #include "pipeline/planes.h"
 #include "tests/sim_test_util.h"
 
@@ -53,6 +54,24 @@ TEST(PlaneOptions, DefaultsAreValidAndFaultsAreNamed) {
   fails_on([](PlaneOptions* o) { o->normal_votes = 0; }, "normal_votes");
   fails_on([](PlaneOptions* o) { o->normal_agreement_deg = 90; }, "normal_agreement_deg");
   fails_on([](PlaneOptions* o) { o->shot_inlier_threshold_px = 0; }, "shot_inlier_threshold_px");
+  fails_on([](PlaneOptions* o) { o->young_frames = 10; }, "young_frames");
+  fails_on([](PlaneOptions* o) { o->max_noise_scale = 0.5; }, "max_noise_scale");
+}
+
+TEST(MotionStageOptions, DefaultsAreValidAndFaultsAreNamed) {
+  std::string error;
+  EXPECT_TRUE(MotionStageOptions().Check(&error)) << error;
+  auto fails_on = [](auto change, const std::string& field) {
+    MotionStageOptions options;
+    change(&options);
+    std::string message;
+    EXPECT_FALSE(options.Check(&message)) << field;
+    EXPECT_NE(message.find(field), std::string::npos) << message;
+  };
+  fails_on([](MotionStageOptions* o) { o->lost_planes_kept = -1; }, "lost_planes_kept");
+  fails_on([](MotionStageOptions* o) { o->refind_min_matches = 3; }, "refind_min_matches");
+  fails_on([](MotionStageOptions* o) { o->flow.history_frames = 20; }, "flow.history_frames");
+  fails_on([](MotionStageOptions* o) { o->planes.baseline_frames = 0; }, "planes.baseline_frames");
 }
 
 TEST(UndistortPixels, AgreesWithTheCameraModelOnAStrongBarrel) {
