@@ -23,6 +23,8 @@ const std::map<QString, Subcommand>& Subcommands() {
       {"info", {autocal::cli::Info, "validate a recording and report its contents"}},
       {"run",
        {autocal::cli::Run, "calibrate from a recording: boxes 1-10, history, summary, export"}},
+      {"export",
+       {autocal::cli::Export, "export a calibration history, or the calibration it ends with"}},
       {"distortion",
        {autocal::cli::Distortion, "estimate lens distortion from straight lines in still images"}},
       {"record",

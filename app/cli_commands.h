@@ -12,6 +12,8 @@ int Info(const QStringList& arguments);
 int Distortion(const QStringList& arguments);
 // run_command.cc
 int Run(const QStringList& arguments);
+// export_command.cc
+int Export(const QStringList& arguments);
 // record_command.cc
 int Record(const QStringList& arguments);
 int Devices(const QStringList& arguments);

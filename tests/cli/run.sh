@@ -25,6 +25,20 @@ done
 grep -q 'camera_matrix' "$dir/final.yaml" || fail "export written"
 [[ -s "$dir/h.sqlite" ]] || fail "history written"
 
+# The history exported whole, and as the calibration it ends with.
+"$autocal" export --history "$dir/h.sqlite" --format csv --out "$dir/h.csv" >/dev/null
+attempts=$(grep -oE '"attempted": [0-9]+' "$dir/summary.json" | grep -oE '[0-9]+$')
+[[ $(($(wc -l <"$dir/h.csv") - 1)) -eq $attempts ]] || fail "one CSV row per attempt ($attempts)"
+"$autocal" export --history "$dir/h.sqlite" --calibration --format ros --out "$dir/ros.yaml" >/dev/null
+grep -q 'distortion_model: plumb_bob' "$dir/ros.yaml" || fail "ROS export"
+fx_run=$(grep -oE '"final": \{[^}]*' "$dir/summary.json" | grep -oE '"fx": [0-9.]+' | grep -oE '[0-9.]+$')
+fx_ros=$(grep -oE 'data: \[ *[0-9.]+' "$dir/ros.yaml" | head -1 | grep -oE '[0-9.]+$')
+[[ "${fx_run:0:7}" == "${fx_ros:0:7}" ]] || fail "exported fx $fx_ros is the run's final $fx_run"
+set +e
+"$autocal" export --history "$dir/none.sqlite" --format csv --out "$dir/x.csv" 2>"$dir/err"; code=$?
+set -e
+[[ $code -eq 1 ]] && grep -q 'none.sqlite' "$dir/err" || fail "missing history file: $code $(cat "$dir/err")"
+
 # The exported calibration is a valid prior for another run.
 "$autocal" run --input "sim:office,seconds=2,resolution=320x240" --prior "$dir/final.yaml" \
   >"$dir/out2" 2>/dev/null || fail "a run from the exported prior"
