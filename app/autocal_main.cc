@@ -30,6 +30,8 @@ const std::map<QString, Subcommand>& Subcommands() {
       {"record",
        {autocal::cli::Record, "record a live camera + accelerometer (or any source) to a folder"}},
       {"devices", {autocal::cli::Devices, "list cameras and look for a USB accelerometer"}},
+      {"bench",
+       {autocal::cli::Bench, "time the whole pipeline on a simulated recording (fps, latency)"}},
   };
   return kSubcommands;
 }

@@ -17,5 +17,7 @@ int Export(const QStringList& arguments);
 // record_command.cc
 int Record(const QStringList& arguments);
 int Devices(const QStringList& arguments);
+// bench_command.cc
+int Bench(const QStringList& arguments);
 
 }  // namespace autocal::cli

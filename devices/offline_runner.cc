@@ -94,7 +94,6 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
 
   AccelCalibration accel;
   accel.cam_from_accel = session.cam_from_accel;
-  CalibrationPipeline pipeline(report.prior, accel, settings.pipeline);
   std::unique_ptr<HistoryStore> store;
   if (!settings.history_path.empty()) {
     store = std::make_unique<HistoryStore>(settings.history_path);
@@ -106,43 +105,35 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
     }
   }
 
-  const std::vector<AccelSample>& samples = sequence.accel();
-  const int64_t offset_ns = static_cast<int64_t>(std::llround(settings.accel_time_offset_s * 1e9));
-  // Box 7 tests rest over a window centred on each frame: readings run half of it ahead.
-  const int64_t lead_ns =
-      static_cast<int64_t>(0.5 * settings.pipeline.inertial.quasi_static.window_s * 1e9);
-  size_t fed = 0;
-
   std::map<std::string, std::vector<double>> times;
   std::vector<int64_t> frame_times;
   std::vector<CameraIntrinsics> outputs;
-  const auto start = std::chrono::steady_clock::now();
   report.frames = sequence.frame_count();
-  for (size_t i = 0; i < report.frames; ++i) {
-    const int64_t t_ns = sequence.frame_time_ns(i);
-    std::vector<SpecificForceSample> batch;
-    while (fed < samples.size() && samples[fed].t_ns + offset_ns <= t_ns + lead_ns) {
-      batch.push_back({samples[fed].t_ns + offset_ns, samples[fed].specific_force});
-      ++fed;
-    }
-    pipeline.AddAccel(batch);
-
-    const cv::Mat frame = sequence.LoadFrame(i);
-    const auto frame_start = std::chrono::steady_clock::now();
-    const FrameSnapshot snapshot = pipeline.Process(t_ns, frame);
-    times["frame"].push_back(MillisecondsSince(frame_start));
-    for (const auto& [box, ms] : snapshot.timing.Named()) {
+  const auto start = std::chrono::steady_clock::now();
+  RuntimeOptions runtime_options = settings.runtime;
+  runtime_options.accel_time_offset_s = settings.accel_time_offset_s;
+  std::unique_ptr<Runtime> runtime;
+  // Runs on the runtime's boxes 4-9 thread, frame after frame.
+  const auto on_frame = [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+    double frame_ms = 0.0;
+    for (const auto& [box, ms] : snapshot->timing.Named()) {
       if (ms > 0.0) times[box].push_back(ms);
+      if (box != "calibration") frame_ms += ms;
     }
-    if (snapshot.attempt && store) store->Record(pipeline.history());
-    frame_times.push_back(t_ns);
-    outputs.push_back(snapshot.calibration.calibration);
+    times["frame"].push_back(frame_ms);
+    if (snapshot->attempt && store) store->Record(runtime->history());
+    frame_times.push_back(snapshot->t_ns);
+    outputs.push_back(snapshot->calibration.calibration);
     if (progress) {
-      progress({i + 1, report.frames,
+      progress({frame_times.size(), report.frames,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-                &snapshot});
+                snapshot.get()});
     }
-  }
+  };
+  runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
+                                      on_frame, settings.solve);
+  PushSequence(sequence, runtime.get());
+  times["update_latency"] = runtime->stats().update_latency_ms;
   report.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (report.frames > 1) {
@@ -150,7 +141,7 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   }
   report.fps = report.wall_seconds > 0 ? double(report.frames) / report.wall_seconds : 0.0;
 
-  const CalibrationHistory& history = pipeline.history();
+  const CalibrationHistory& history = runtime->history();
   report.final = history.Current(frame_times.empty() ? 0 : frame_times.back());
   report.attempts = static_cast<int>(history.attempts().size());
   for (const AttemptRecord& attempt : history.attempts()) {
@@ -165,7 +156,9 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
     }
   }
   report.alarms = history.alarms();
-  for (auto& [box, values] : times) report.timing[box] = Stats(std::move(values));
+  for (auto& [box, values] : times) {
+    if (!values.empty()) report.timing[box] = Stats(std::move(values));
+  }
   if (const auto* truth = sequence.ground_truth(); truth && truth->size() == report.frames) {
     report.truth = CompareWithTruth(frame_times, outputs, *truth, settings.convergence);
   }

@@ -1,5 +1,7 @@
-// Runs a recorded or simulated sequence through boxes 1-10 headless, frame after frame as
-// fast as the machine allows, feeding the accelerometer ahead of the frames, recording
+// Runs a recorded or simulated sequence through boxes 1-10 headless on the threaded
+// runtime (devices/runtime.h) in its offline mode, as fast as the machine allows and with
+// results that do not depend on thread timing, feeding the accelerometer ahead of the
+// frames, recording
 // every calibration attempt in the history file, and measuring the result against the
 // ground truth where the sequence has it. `autocal run` and the end-to-end tests use it.
 #pragma once
@@ -11,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "devices/runtime.h"
 #include "devices/sequence.h"
 #include "pipeline/calibration_error.h"
 #include "pipeline/calibration_pipeline.h"
@@ -24,6 +27,10 @@ struct RunSettings {
   std::string history_path;  // SQLite history file to append to; empty: none.
   // Added to accelerometer timestamps to put them on the camera's clock.
   double accel_time_offset_s = 0.0;
+  // Threads and queues (its accel_time_offset_s is replaced by the one above).
+  RuntimeOptions runtime;
+  // Box 10; empty: SelfCalibrate with pipeline.calibration.
+  Runtime::Solver solve;
   // Where the truth is known: "converged" once the output is within these of it.
   CalibrationTolerance convergence;
 };
@@ -57,7 +64,10 @@ struct RunReport {
   std::map<Verdict, int> verdicts;
   std::vector<Alarm> alarms;
   std::vector<std::string> no_update_reasons;  // Distinct reasons, in order of first use.
-  std::map<std::string, TimingStats> timing;   // By box (BoxTimings::Named), plus "frame".
+  // By box (BoxTimings::Named); "frame": boxes 1-9 and the judgement (box 10's solve runs
+  // on its own worker); "update_latency": from the frame that closed an attempt's window
+  // entering the runtime to the attempt's judgement in effect.
+  std::map<std::string, TimingStats> timing;
   std::optional<GroundTruthReport> truth;
 };
 

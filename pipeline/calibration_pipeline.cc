@@ -41,12 +41,41 @@ std::vector<std::pair<std::string, double>> BoxTimings::Named() const {
           {"calibration", calibration_ms}, {"history", history_ms}};
 }
 
-CalibrationPipeline::CalibrationPipeline(const CameraIntrinsics& premission,
-                                         const AccelCalibration& accel,
-                                         const PipelineOptions& options)
+LensHalf::LensHalf(const PipelineOptions& options)
+    : lens_(options.lens), rectifier_(options.lens.rectify) {}
+
+void LensHalf::set_options(const PipelineOptions& options) {
+  lens_.set_options(options.lens);
+  rectifier_.set_options(options.lens.rectify);
+}
+
+LensFrame LensHalf::Process(int64_t t_ns, const cv::Mat& raw, const CalibrationState& state) {
+  LensFrame frame;
+  frame.t_ns = t_ns;
+  // Box 2 measured the distortion in pixels at the focal length it was given: the same
+  // pixels at today's focal length, until the history has accepted a distortion.
+  frame.working = state.distortion_accepted || !plumb_line_
+                      ? state.filtered.calibration
+                      : WithDistortionOf(state.filtered.calibration, plumb_line_->estimate);
+
+  frame.lens = lens_.Process(t_ns, raw, frame.working);
+  if (frame.lens.distortion && frame.lens.distortion->usable) plumb_line_ = frame.lens.distortion;
+
+  const auto start = std::chrono::steady_clock::now();
+  frame.gray = rectifier_.Equalize(rectifier_.Channel(raw));
+  frame.rectify_ms = MillisecondsSince(start);
+
+  if (pooled_version_ != lens_.pool_version()) {
+    pooled_ = std::make_shared<const std::vector<LineObservation>>(lens_.PooledShapes());
+    pooled_version_ = lens_.pool_version();
+  }
+  frame.pooled_shapes = pooled_;
+  return frame;
+}
+
+MotionHalf::MotionHalf(const CameraIntrinsics& premission, const AccelCalibration& accel,
+                       const PipelineOptions& options)
     : options_(options),
-      lens_(options.lens),
-      rectifier_(options.lens.rectify),
       motion_(options.motion),
       inertial_(accel, options.inertial),
       material_(options.material),
@@ -56,30 +85,20 @@ CalibrationPipeline::CalibrationPipeline(const CameraIntrinsics& premission,
   filtered_ = history_.Current(0);
 }
 
-void CalibrationPipeline::set_options(const PipelineOptions& options) {
+void MotionHalf::set_options(const PipelineOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw Error("pipeline options: " + why);
   options_ = options;
-  lens_.set_options(options.lens);
-  rectifier_.set_options(options.lens.rectify);
   motion_.set_options(options.motion);
   inertial_.set_options(options.inertial);
   material_.set_options(options.material);
 }
 
-void CalibrationPipeline::AddAccel(std::span<const SpecificForceSample> samples) {
+void MotionHalf::AddAccel(std::span<const SpecificForceSample> samples) {
   inertial_.AddSamples(samples);
 }
 
-CameraIntrinsics CalibrationPipeline::Working() const {
-  if (distortion_accepted_ || !plumb_line_) return filtered_.calibration;
-  // Box 2 measured the distortion in pixels at the focal length it was given: the same
-  // pixels at today's focal length.
-  return WithDistortionOf(filtered_.calibration, plumb_line_->estimate);
-}
-
-std::optional<VisualMotion> CalibrationPipeline::VisionBetweenFrames(
-    const MotionSnapshot& motion) {
+std::optional<VisualMotion> MotionHalf::VisionBetweenFrames(const MotionSnapshot& motion) {
   // The plane with the most tracks whose decomposition, from the same reference, is known
   // in both frames: X_now = R X_ref + t d for each, so between the frames the camera turned
   // by R_now R_before^T.
@@ -106,31 +125,23 @@ std::optional<VisualMotion> CalibrationPipeline::VisionBetweenFrames(
   return visual;
 }
 
-FrameSnapshot CalibrationPipeline::ProcessFrame(int64_t t_ns, const cv::Mat& raw,
-                                                std::optional<CalibrationJob>* job) {
+FrameSnapshot MotionHalf::Process(LensFrame frame, std::optional<CalibrationJob>* job) {
   FrameSnapshot snapshot;
-  snapshot.t_ns = t_ns;
+  snapshot.t_ns = frame.t_ns;
   snapshot.index = frames_++;
-  snapshot.working = Working();
+  snapshot.working = frame.working;
+  snapshot.timing.lines_ms = frame.lens.lines_ms;
+  snapshot.timing.distortion_ms = frame.lens.distortion_ms;
+  snapshot.lens = std::move(frame.lens);
+  snapshot.timing.rectify_ms = frame.rectify_ms;
 
-  snapshot.lens = lens_.Process(t_ns, raw, snapshot.working);
-  snapshot.timing.lines_ms = snapshot.lens.lines_ms;
-  snapshot.timing.distortion_ms = snapshot.lens.distortion_ms;
-  if (snapshot.lens.distortion && snapshot.lens.distortion->usable) {
-    plumb_line_ = snapshot.lens.distortion;
-  }
-
-  auto start = std::chrono::steady_clock::now();
-  const cv::Mat gray = rectifier_.Equalize(rectifier_.Channel(raw));
-  snapshot.timing.rectify_ms = MillisecondsSince(start);
-
-  snapshot.motion = motion_.Process(t_ns, gray, snapshot.working);
+  snapshot.motion = motion_.Process(frame.t_ns, frame.gray, snapshot.working);
   snapshot.timing.features_ms = snapshot.motion.features_ms;
   snapshot.timing.flow_ms = snapshot.motion.flow_ms;
   snapshot.timing.planes_ms = snapshot.motion.planes_ms;
 
-  start = std::chrono::steady_clock::now();
-  snapshot.inertial = inertial_.Process(t_ns, VisionBetweenFrames(snapshot.motion));
+  auto start = std::chrono::steady_clock::now();
+  snapshot.inertial = inertial_.Process(frame.t_ns, VisionBetweenFrames(snapshot.motion));
   snapshot.motion.inertial.gravity_cam = snapshot.inertial.gravity_cam;
   snapshot.motion.inertial.motion_class = MotionClassName(snapshot.inertial.motion);
   snapshot.timing.inertial_ms = MillisecondsSince(start);
@@ -138,26 +149,27 @@ FrameSnapshot CalibrationPipeline::ProcessFrame(int64_t t_ns, const cv::Mat& raw
 
   start = std::chrono::steady_clock::now();
   snapshot.view = material_.Add(snapshot.motion, snapshot.inertial);
-  const bool due =
-      !last_attempt_ns_ || double(t_ns - *last_attempt_ns_) >= options_.material.attempt_every_s * 1e9;
+  const bool due = !last_attempt_ns_ || double(frame.t_ns - *last_attempt_ns_) >=
+                                            options_.material.attempt_every_s * 1e9;
   if (job && snapshot.view && due && !job_pending_ &&
       material_.span_s() >= 0.5 * options_.material.window_s) {
     CalibrationJob next;
-    next.t_ns = t_ns;
-    next.material = material_.Assemble(lens_.PooledShapes());
+    next.t_ns = frame.t_ns;
+    next.material = material_.Assemble(frame.pooled_shapes ? *frame.pooled_shapes
+                                                           : std::vector<LineObservation>{});
     next.prior = snapshot.working;
     next.view_times = material_.view_times();
     *job = std::move(next);
     job_pending_ = true;
-    last_attempt_ns_ = t_ns;
+    last_attempt_ns_ = frame.t_ns;
   }
   snapshot.timing.material_ms = MillisecondsSince(start);
   snapshot.calibration = filtered_;
   return snapshot;
 }
 
-std::shared_ptr<const AttemptOutcome> CalibrationPipeline::Judge(
-    const CalibrationJob& job, const SelfCalibrationResult& result) {
+std::shared_ptr<const AttemptOutcome> MotionHalf::Judge(const CalibrationJob& job,
+                                                        const SelfCalibrationResult& result) {
   job_pending_ = false;
   history_.Judge(job.t_ns, result);
   auto outcome = std::make_shared<AttemptOutcome>();
@@ -181,16 +193,41 @@ std::shared_ptr<const AttemptOutcome> CalibrationPipeline::Judge(
   return outcome;
 }
 
+CalibrationPipeline::CalibrationPipeline(const CameraIntrinsics& premission,
+                                         const AccelCalibration& accel,
+                                         const PipelineOptions& options)
+    : lens_(options), motion_(premission, accel, options) {}
+
+void CalibrationPipeline::set_options(const PipelineOptions& options) {
+  motion_.set_options(options);  // Checks them first.
+  lens_.set_options(options);
+}
+
+void CalibrationPipeline::AddAccel(std::span<const SpecificForceSample> samples) {
+  motion_.AddAccel(samples);
+}
+
+FrameSnapshot CalibrationPipeline::ProcessFrame(int64_t t_ns, const cv::Mat& raw,
+                                                std::optional<CalibrationJob>* job) {
+  return motion_.Process(lens_.Process(t_ns, raw, motion_.state()), job);
+}
+
+std::shared_ptr<const AttemptOutcome> CalibrationPipeline::Judge(
+    const CalibrationJob& job, const SelfCalibrationResult& result) {
+  return motion_.Judge(job, result);
+}
+
 FrameSnapshot CalibrationPipeline::Process(int64_t t_ns, const cv::Mat& raw) {
   std::optional<CalibrationJob> job;
   FrameSnapshot snapshot = ProcessFrame(t_ns, raw, &job);
   if (!job) return snapshot;
   auto start = std::chrono::steady_clock::now();
-  const SelfCalibrationResult result = SelfCalibrate(job->material, job->prior, options_.calibration);
+  const SelfCalibrationResult result =
+      SelfCalibrate(job->material, job->prior, options().calibration);
   snapshot.timing.calibration_ms = MillisecondsSince(start);
   start = std::chrono::steady_clock::now();
   snapshot.attempt = Judge(*job, result);
-  snapshot.calibration = filtered_;
+  snapshot.calibration = motion_.state().filtered;
   snapshot.timing.history_ms = MillisecondsSince(start);
   return snapshot;
 }

@@ -1,7 +1,9 @@
 // Boxes 1-10 frame by frame: the lens stage (1-3), the motion stage (4-6), the
 // accelerometer (7), the window of material (9), the self-calibrating solve (10) with the
 // virtual boards it places (8), and the history that judges every attempt. Each frame gives
-// an immutable snapshot of everything found in it.
+// an immutable snapshot of everything found in it. Boxes 1-3 (LensHalf) and 4-10
+// (MotionHalf) are separate objects that share nothing but what they hand each other, so
+// that they can run on two threads joined by frame timestamps (devices/runtime.h).
 //
 // Boxes 4-6 track the raw image (its equalized green channel), not a rectified one, so the
 // track positions box 10 measures are raw pixels whatever the current calibration: that
@@ -95,6 +97,84 @@ struct FrameSnapshot {
   BoxTimings timing;
 };
 
+// What boxes 8-10 and the history hand back to boxes 1-3 after a frame: the calibration
+// the lens half works with on later frames.
+struct CalibrationState {
+  FilteredCalibration filtered;
+  bool distortion_accepted = false;  // The history holds an estimated distortion.
+};
+
+// Boxes 1-3 on one frame: everything the motion half needs of it.
+struct LensFrame {
+  int64_t t_ns = 0;
+  // The calibration boxes 1-6 work with on this frame (FrameSnapshot::working).
+  CameraIntrinsics working;
+  LensSnapshot lens;
+  cv::Mat gray;  // Box 3: the equalized green channel that boxes 4-6 track.
+  double rectify_ms = 0.0;
+  // Box 1's snake shapes pooled so far, shared between frames while the pool is unchanged
+  // (box 10's plumb-line material).
+  std::shared_ptr<const std::vector<LineObservation>> pooled_shapes;
+};
+
+// Boxes 1-3. Runs on its own thread in the runtime: it owns the lens stage and box 2's
+// newest estimate, and learns the calibration only through the CalibrationState it is given.
+class LensHalf {
+ public:
+  explicit LensHalf(const PipelineOptions& options = {});
+
+  // `state`: the calibration after the latest frame the motion half has finished.
+  LensFrame Process(int64_t t_ns, const cv::Mat& raw, const CalibrationState& state);
+  void set_options(const PipelineOptions& options);
+
+ private:
+  LensStage lens_;
+  Rectifier rectifier_;
+  std::optional<PlumbLineResult> plumb_line_;  // Box 2's newest usable estimate.
+  std::shared_ptr<const std::vector<LineObservation>> pooled_;
+  std::optional<uint64_t> pooled_version_;
+};
+
+// Boxes 4-9, box 10's jobs and their judgement. Frames come in from the lens half in time
+// order; the accelerometer joins them by timestamp.
+class MotionHalf {
+ public:
+  // Throws Error when the options or the calibration are not valid.
+  MotionHalf(const CameraIntrinsics& premission, const AccelCalibration& accel,
+             const PipelineOptions& options = {});
+
+  void AddAccel(std::span<const SpecificForceSample> samples);
+  // Boxes 4-9 on a frame from the lens half, with box 10's job when an attempt is due (and
+  // `job` is not null). No new job is handed out while one is pending.
+  FrameSnapshot Process(LensFrame frame, std::optional<CalibrationJob>* job);
+  // Judges a job's result (jobs in order); the output changes from the next frame on.
+  std::shared_ptr<const AttemptOutcome> Judge(const CalibrationJob& job,
+                                              const SelfCalibrationResult& result);
+  CalibrationState state() const { return {filtered_, distortion_accepted_}; }
+
+  const CalibrationHistory& history() const { return history_; }
+  const PipelineOptions& options() const { return options_; }
+  void set_options(const PipelineOptions& options);
+
+ private:
+  std::optional<VisualMotion> VisionBetweenFrames(const MotionSnapshot& motion);
+
+  PipelineOptions options_;
+  MotionStage motion_;
+  InertialStage inertial_;
+  MaterialWindow material_;
+  CalibrationHistory history_;
+  FilteredCalibration filtered_;
+  bool distortion_accepted_ = false;
+  // Per plane: its reference frame and decomposed rotation in the previous frame.
+  std::vector<std::pair<int, std::pair<int64_t, Eigen::Matrix3d>>> previous_rotations_;
+  std::optional<int64_t> last_attempt_ns_;
+  bool job_pending_ = false;
+  int64_t frames_ = 0;
+};
+
+// Boxes 1-10 on one thread: the two halves in turn, the lens half always seeing the
+// calibration after the previous frame. devices/runtime.h runs them on threads.
 class CalibrationPipeline {
  public:
   // `premission`: the calibration to start from and to judge the first attempts against.
@@ -116,30 +196,14 @@ class CalibrationPipeline {
   std::shared_ptr<const AttemptOutcome> Judge(const CalibrationJob& job,
                                               const SelfCalibrationResult& result);
 
-  const CalibrationHistory& history() const { return history_; }
-  const PipelineOptions& options() const { return options_; }
+  const CalibrationHistory& history() const { return motion_.history(); }
+  const PipelineOptions& options() const { return motion_.options(); }
   // Takes effect on the next frame. Throws Error when not valid.
   void set_options(const PipelineOptions& options);
 
  private:
-  CameraIntrinsics Working() const;
-  std::optional<VisualMotion> VisionBetweenFrames(const MotionSnapshot& motion);
-
-  PipelineOptions options_;
-  LensStage lens_;
-  Rectifier rectifier_;
-  MotionStage motion_;
-  InertialStage inertial_;
-  MaterialWindow material_;
-  CalibrationHistory history_;
-  FilteredCalibration filtered_;
-  std::optional<PlumbLineResult> plumb_line_;  // Box 2's newest usable estimate.
-  bool distortion_accepted_ = false;           // The history holds an estimated distortion.
-  // Per plane: its reference frame and decomposed rotation in the previous frame.
-  std::vector<std::pair<int, std::pair<int64_t, Eigen::Matrix3d>>> previous_rotations_;
-  std::optional<int64_t> last_attempt_ns_;
-  bool job_pending_ = false;
-  int64_t frames_ = 0;
+  LensHalf lens_;
+  MotionHalf motion_;
 };
 
 }  // namespace autocal

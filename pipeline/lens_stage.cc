@@ -72,6 +72,7 @@ void LensStage::AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_siz
   const int row = std::clamp(int(middle.y() * rows / image_size.height), 0, rows - 1);
   std::deque<LineObservation>& bin = pool_[(row * columns + column) * 4 + orientation];
   bin.push_back({std::move(points)});
+  ++pool_version_;
   while (int(bin.size()) > options_.pool_per_cell) bin.pop_front();
 }
 

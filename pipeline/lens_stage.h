@@ -72,6 +72,8 @@ class LensStage {
   size_t pooled_shapes() const;
   // The snake shapes pooled so far (raw pixels), bin by bin over the image.
   std::vector<LineObservation> PooledShapes() const;
+  // Changes whenever a shape joins the pool: a copy of the pool stays current until then.
+  uint64_t pool_version() const { return pool_version_; }
 
  private:
   void Pool(const RadonSnake& snake, cv::Size image_size);
@@ -85,6 +87,7 @@ class LensStage {
   std::vector<std::pair<int, Eigen::Vector2d>> last_pooled_;
   std::optional<PlumbLineResult> latest_;
   int64_t frames_ = 0;
+  uint64_t pool_version_ = 0;
 };
 
 }  // namespace autocal

@@ -1,0 +1,216 @@
+// `autocal bench`: the whole pipeline on a simulated recording, timed. The recording is
+// rendered into memory first so that rendering is not timed (or, with --stream, rendered
+// as the pipeline asks for it, for sessions too long to hold: then memory is the point).
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <QCommandLineParser>
+#include <QTemporaryDir>
+
+#include "app/cli_commands.h"
+#include "app/cli_util.h"
+#include "devices/offline_runner.h"
+#include "devices/sim/simulator.h"
+#include "pipeline/error.h"
+#include "pipeline/text_format.h"
+
+namespace autocal::cli {
+namespace {
+
+// A sequence whose frames are already in memory: LoadFrame costs nothing.
+class RenderedSequence : public Sequence {
+ public:
+  explicit RenderedSequence(std::unique_ptr<Sequence> source) : source_(std::move(source)) {
+    frames_.resize(source_->frame_count());
+    // The renderer already spreads each frame over every core.
+    for (size_t i = 0; i < frames_.size(); ++i) frames_[i] = source_->LoadFrame(i);
+  }
+  std::string Describe() const override { return source_->Describe(); }
+  const SessionInfo& session() const override { return source_->session(); }
+  size_t frame_count() const override { return frames_.size(); }
+  int64_t frame_time_ns(size_t index) const override { return source_->frame_time_ns(index); }
+  cv::Mat LoadFrame(size_t index) const override { return frames_.at(index); }
+  const std::vector<AccelSample>& accel() const override { return source_->accel(); }
+  const std::vector<std::string>& warnings() const override { return source_->warnings(); }
+  const std::vector<GroundTruthFrame>* ground_truth() const override {
+    return source_->ground_truth();
+  }
+  double megabytes() const {
+    double bytes = 0.0;
+    for (const cv::Mat& frame : frames_) bytes += double(frame.total() * frame.elemSize());
+    return bytes / (1024.0 * 1024.0);
+  }
+
+ private:
+  std::unique_ptr<Sequence> source_;
+  std::vector<cv::Mat> frames_;
+};
+
+// A field of /proc/self/status in MB (VmHWM: peak resident size; VmRSS: now).
+double StatusMegabytes(const std::string& field) {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind(field + ":", 0) == 0) return std::stod(line.substr(field.size() + 1)) / 1024.0;
+  }
+  return 0.0;
+}
+
+std::string CpuModel() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(cpuinfo, line)) {
+    if (line.rfind("model name", 0) == 0) {
+      const size_t colon = line.find(':');
+      return colon == std::string::npos ? line : line.substr(colon + 2);
+    }
+  }
+  return "unknown";
+}
+
+double LoadAverage() {
+  std::ifstream loadavg("/proc/loadavg");
+  double one_minute = 0.0;
+  loadavg >> one_minute;
+  return one_minute;
+}
+
+std::string StatsJson(const TimingStats& stats) {
+  return "{\"median\": " + JsonNumber(stats.median_ms) + ", \"p95\": " + JsonNumber(stats.p95_ms) +
+         ", \"count\": " + std::to_string(stats.count) + "}";
+}
+
+}  // namespace
+
+int Bench(const QStringList& arguments) {
+  const QString name = "bench";
+  QCommandLineParser parser;
+  parser.setApplicationDescription(
+      "Runs the whole pipeline (boxes 1-10, history written) offline on a simulated\n"
+      "recording rendered into memory beforehand, and prints per-box median and 95th\n"
+      "percentile times, end-to-end frames per second, calibration-update latency and peak\n"
+      "memory.");
+  parser.addOptions({
+      {"scenario", "Simulator scenario, optionally with overrides: office,lens=sonnar.", "spec",
+       "office"},
+      {"resolution", "Frame size (default 640x480).", "WxH", "640x480"},
+      {"seconds", "Seconds of recording (default 10).", "s", "10"},
+      {"json", "Write the figures as JSON here too.", "file"},
+      {"stream",
+       "Render frames as the pipeline asks for them instead of beforehand (rendering is then "
+       "timed): for long sessions, with the resident size sampled every 10% of the run."},
+  });
+  if (const auto code = Parse(parser, name, arguments)) return *code;
+  bool seconds_ok = false;
+  const double seconds = parser.value("seconds").toDouble(&seconds_ok);
+  if (!seconds_ok || seconds <= 0.0) {
+    return UsageError(name, "--seconds takes a positive number, got " + parser.value("seconds"),
+                      parser);
+  }
+
+  try {
+    Scenario scenario = ParseScenarioSpec(parser.value("scenario").toStdString());
+    ApplyScenarioOverride(&scenario, "resolution", parser.value("resolution").toStdString());
+    ApplyScenarioOverride(&scenario, "seconds", parser.value("seconds").toStdString());
+    std::unique_ptr<Sequence> simulated = MakeSimulatedSequence(scenario);
+    const bool stream = parser.isSet("stream");
+    std::unique_ptr<RenderedSequence> rendered;
+    if (!stream) {
+      std::fprintf(stderr, "autocal bench: rendering %zu frames...\n", simulated->frame_count());
+      rendered = std::make_unique<RenderedSequence>(std::move(simulated));
+    }
+    const Sequence& sequence = stream ? *simulated : *rendered;
+
+    const QTemporaryDir dir;
+    if (!dir.isValid()) throw Error("cannot make a temporary folder for the history");
+    RunSettings settings;
+    settings.history_path = dir.filePath("history.sqlite").toStdString();
+    // Resident size at each tenth of the run, and after the first minute of recording.
+    std::vector<std::pair<double, double>> rss;  // (recording s, MB)
+    std::optional<double> rss_after_minute;
+    const int64_t first_ns = sequence.frame_count() ? sequence.frame_time_ns(0) : 0;
+    ProgressPrinter printer("bench", "frames");
+    const RunReport report = RunSequence(sequence, settings, [&](const RunProgress& progress) {
+      printer(progress.frame, progress.frames);
+      const double at_s = 1e-9 * double(progress.snapshot->t_ns - first_ns);
+      if (!rss_after_minute && at_s >= 60.0) rss_after_minute = StatusMegabytes("VmRSS");
+      if (progress.frame * 10 / progress.frames != (progress.frame - 1) * 10 / progress.frames) {
+        rss.emplace_back(at_s, StatusMegabytes("VmRSS"));
+      }
+    });
+    const double peak_mb = StatusMegabytes("VmHWM");
+    const double frames_mb = rendered ? rendered->megabytes() : 0.0;
+
+    const auto latency = report.timing.find("update_latency");
+    const TimingStats update = latency == report.timing.end() ? TimingStats{} : latency->second;
+
+    std::printf("%s, %s, %.1f s of recording: %zu frames\n", sequence.Describe().c_str(),
+                parser.value("resolution").toUtf8().constData(), report.seconds, report.frames);
+    std::printf("machine: %u cores, %s, load average %.2f\n", std::thread::hardware_concurrency(),
+                CpuModel().c_str(), LoadAverage());
+    std::printf("%-16s %10s %10s %8s\n", "box", "median ms", "p95 ms", "frames");
+    for (const auto& [box, stats] : report.timing) {
+      if (box == "update_latency") continue;
+      std::printf("%-16s %10.3f %10.3f %8d\n", box.c_str(), stats.median_ms, stats.p95_ms,
+                  stats.count);
+    }
+    std::printf("end to end: %.1f frames/s (%.2f s wall)%s\n", report.fps, report.wall_seconds,
+                stream ? ", rendering included" : "");
+    std::printf("calibration updates: %d judged, latency median %.1f ms, p95 %.1f ms\n",
+                update.count, update.median_ms, update.p95_ms);
+    std::printf("peak memory (VmHWM): %.1f MB, of which rendered frames %.1f MB\n", peak_mb,
+                frames_mb);
+    if (stream && rss_after_minute && !rss.empty()) {
+      std::printf("resident size: %.1f MB after 1 min, %.1f MB at the end (%+.1f%%)\n",
+                  *rss_after_minute, rss.back().second,
+                  100.0 * (rss.back().second / *rss_after_minute - 1.0));
+    }
+
+    if (parser.isSet("json")) {
+      std::string json = "{\n";
+      json += "  \"scenario\": " + JsonString(parser.value("scenario").toStdString()) + ",\n";
+      json += "  \"resolution\": " + JsonString(parser.value("resolution").toStdString()) + ",\n";
+      json += "  \"frames\": " + std::to_string(report.frames) + ",\n";
+      json += "  \"seconds\": " + JsonNumber(report.seconds) + ",\n";
+      json += "  \"wall_seconds\": " + JsonNumber(report.wall_seconds) + ",\n";
+      json += "  \"fps\": " + JsonNumber(report.fps) + ",\n";
+      json += "  \"rendering_timed\": " + std::string(stream ? "true" : "false") + ",\n";
+      json += "  \"timing_ms\": {";
+      bool first = true;
+      for (const auto& [box, stats] : report.timing) {
+        if (box == "update_latency") continue;
+        json += std::string(first ? "\n" : ",\n") + "    " + JsonString(box) + ": " +
+                StatsJson(stats);
+        first = false;
+      }
+      json += "\n  },\n";
+      json += "  \"update_latency_ms\": " + StatsJson(update) + ",\n";
+      json += "  \"peak_rss_mb\": " + JsonNumber(peak_mb) + ",\n";
+      json += "  \"rendered_frames_mb\": " + JsonNumber(frames_mb) + ",\n";
+      json += "  \"rss_mb\": [";
+      for (size_t i = 0; i < rss.size(); ++i) {
+        json += std::string(i ? ", " : "") + "{\"t\": " + JsonNumber(rss[i].first) +
+                ", \"mb\": " + JsonNumber(rss[i].second) + "}";
+      }
+      json += "],\n";
+      json += "  \"rss_after_first_minute_mb\": " +
+              (rss_after_minute ? JsonNumber(*rss_after_minute) : std::string("null")) + ",\n";
+      json += "  \"machine\": {\"cores\": " + std::to_string(std::thread::hardware_concurrency()) +
+              ", \"cpu\": " + JsonString(CpuModel()) +
+              ", \"load_average\": " + JsonNumber(LoadAverage()) + "}\n}\n";
+      WriteTextFile(parser.value("json").toStdString(), json);
+    }
+    return 0;
+  } catch (const Error& error) {
+    std::fprintf(stderr, "autocal bench: %s\n", error.what());
+    return 1;
+  }
+}
+
+}  // namespace autocal::cli

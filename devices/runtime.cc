@@ -1,0 +1,281 @@
+#include "devices/runtime.h"
+
+#include <cmath>
+#include <utility>
+
+#include "pipeline/error.h"
+#include "pipeline/stopwatch.h"
+
+namespace autocal {
+
+bool RuntimeOptions::Check(std::string* error) const {
+  const auto fail = [&](const char* why) {
+    if (error) *error = why;
+    return false;
+  };
+  if (frame_queue < 1) return fail("frame_queue must be at least 1");
+  if (lens_queue < 1) return fail("lens_queue must be at least 1");
+  if (judge_after_frames < 0) return fail("judge_after_frames must not be negative");
+  if (calibration_lag_frames < 1) return fail("calibration_lag_frames must be at least 1");
+  if (!std::isfinite(accel_time_offset_s)) return fail("accel_time_offset_s must be finite");
+  return true;
+}
+
+namespace {
+
+const RuntimeOptions& Checked(const RuntimeOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw Error("runtime options: " + why);
+  return options;
+}
+
+}  // namespace
+
+Runtime::Runtime(const CameraIntrinsics& premission, const AccelCalibration& accel,
+                 const PipelineOptions& pipeline, const RuntimeOptions& options,
+                 FrameCallback on_frame, Solver solve)
+    : options_(Checked(options)),
+      solve_(solve ? std::move(solve)
+                   : Solver([options = pipeline.calibration](const CalibrationJob& job) {
+                       return SelfCalibrate(job.material, job.prior, options);
+                     })),
+      // Box 7 tests rest over a window centred on each frame: readings run half of it ahead.
+      lead_ns_(static_cast<int64_t>(0.5 * pipeline.inertial.quasi_static.window_s * 1e9)),
+      offset_ns_(static_cast<int64_t>(std::llround(options.accel_time_offset_s * 1e9))),
+      on_frame_(std::move(on_frame)),
+      lens_(pipeline),
+      motion_(premission, accel, pipeline),
+      input_(options.frame_queue),
+      between_(options.lens_queue) {
+  newest_state_ = motion_.state();
+  lens_thread_ = std::thread(&Runtime::LensLoop, this);
+  motion_thread_ = std::thread(&Runtime::MotionLoop, this);
+  solve_thread_ = std::thread(&Runtime::SolveLoop, this);
+}
+
+Runtime::~Runtime() { Stop(); }
+
+void Runtime::WakeAll() {
+  stopping_ = true;
+  input_.Close();
+  between_.Close();
+  {
+    // Under the locks the waits test `stopping_` with, so that no wait misses it.
+    std::lock_guard state_lock(state_mutex_);
+    std::lock_guard solve_lock(solve_mutex_);
+  }
+  state_changed_.notify_all();
+  solve_changed_.notify_all();
+}
+
+void Runtime::Stop() {
+  WakeAll();
+  for (std::thread* thread : {&lens_thread_, &motion_thread_, &solve_thread_}) {
+    if (thread->joinable()) thread->join();
+  }
+}
+
+void Runtime::Fail(std::exception_ptr error) {
+  {
+    std::lock_guard lock(failure_mutex_);
+    if (!failure_) failure_ = error;
+  }
+  WakeAll();
+}
+
+void Runtime::RethrowFailure() {
+  std::lock_guard lock(failure_mutex_);
+  if (failure_) std::rethrow_exception(failure_);
+}
+
+void Runtime::PushAccel(std::span<const AccelSample> samples) {
+  std::lock_guard lock(accel_mutex_);
+  for (const AccelSample& sample : samples) {
+    accel_.push_back({sample.t_ns + offset_ns_, sample.specific_force});
+  }
+}
+
+void Runtime::PushFrame(int64_t t_ns, const cv::Mat& raw) {
+  RethrowFailure();
+  RawFrame frame{t_ns, raw, Clock::now()};
+  {
+    std::lock_guard lock(stats_mutex_);
+    ++stats_.frames_pushed;
+  }
+  if (options_.live) {
+    if (const int dropped = input_.PushDroppingOldest(std::move(frame))) {
+      std::lock_guard lock(stats_mutex_);
+      stats_.frames_dropped += uint64_t(dropped);
+    }
+  } else if (!input_.Push(std::move(frame))) {
+    RethrowFailure();  // Closed by a worker's failure.
+  }
+}
+
+void Runtime::Finish() {
+  if (!finished_) {
+    finished_ = true;
+    // The threads drain the queues in turn and end.
+    input_.Close();
+    if (lens_thread_.joinable()) lens_thread_.join();
+    if (motion_thread_.joinable()) motion_thread_.join();
+    Stop();
+  }
+  RethrowFailure();
+}
+
+std::shared_ptr<const FrameSnapshot> Runtime::latest() const {
+  std::lock_guard lock(snapshot_mutex_);
+  return latest_;
+}
+
+RuntimeStats Runtime::stats() const {
+  std::lock_guard lock(stats_mutex_);
+  return stats_;
+}
+
+CalibrationState Runtime::StateFor(int64_t frame) {
+  std::unique_lock lock(state_mutex_);
+  if (options_.live) return newest_state_;
+  const int64_t after = frame - options_.calibration_lag_frames;  // Frame -1: the start.
+  if (after < 0) return newest_state_;
+  state_changed_.wait(lock, [&] { return stopping_ || frames_done_ > after; });
+  const auto found = states_.find(after);
+  if (found == states_.end()) return newest_state_;  // Stopping.
+  CalibrationState state = found->second;
+  states_.erase(states_.begin(), std::next(found));  // Later frames need later states.
+  return state;
+}
+
+void Runtime::LensLoop() {
+  try {
+    int64_t frame = 0;
+    while (std::optional<RawFrame> raw = input_.Pop()) {
+      if (stopping_) break;
+      LensFrame done = lens_.Process(raw->t_ns, raw->raw, StateFor(frame++));
+      if (!between_.Push({std::move(done), raw->pushed})) break;
+    }
+  } catch (...) {
+    Fail(std::current_exception());
+  }
+  between_.Close();
+}
+
+void Runtime::FeedAccel(int64_t t_ns) {
+  std::vector<SpecificForceSample> batch;
+  {
+    std::lock_guard lock(accel_mutex_);
+    while (!accel_.empty() && accel_.front().t_ns <= t_ns + lead_ns_) {
+      batch.push_back(accel_.front());
+      accel_.pop_front();
+    }
+  }
+  if (!batch.empty()) motion_.AddAccel(batch);
+}
+
+void Runtime::MotionLoop() {
+  try {
+    std::optional<Pending> pending;
+    int64_t frame = 0;
+    while (std::optional<HalfDone> half = between_.Pop()) {
+      if (stopping_) break;
+      FeedAccel(half->frame.t_ns);
+      std::optional<CalibrationJob> job;
+      auto snapshot =
+          std::make_shared<FrameSnapshot>(motion_.Process(std::move(half->frame), &job));
+      if (job) {
+        pending = Pending{*job, frame, half->pushed};
+        {
+          std::lock_guard lock(solve_mutex_);
+          solve_job_ = std::move(job);
+        }
+        solve_changed_.notify_all();
+        std::lock_guard lock(stats_mutex_);
+        ++stats_.solves;
+      }
+      if (pending) {
+        std::unique_lock lock(solve_mutex_);
+        const bool judge = options_.live
+                               ? solve_result_.has_value()
+                               : frame >= pending->frame + options_.judge_after_frames;
+        if (judge) {
+          solve_changed_.wait(lock, [&] { return stopping_ || solve_result_.has_value(); });
+          if (!solve_result_) break;  // Stopping.
+          const SelfCalibrationResult result = std::move(*solve_result_);
+          solve_result_.reset();
+          snapshot->timing.calibration_ms = solve_ms_;
+          lock.unlock();
+          const auto start = Clock::now();
+          snapshot->attempt = motion_.Judge(pending->job, result);
+          snapshot->calibration = motion_.state().filtered;
+          snapshot->timing.history_ms = MillisecondsSince(start);
+          const double latency_ms =
+              std::chrono::duration<double, std::milli>(Clock::now() - pending->pushed).count();
+          pending.reset();
+          std::lock_guard stats_lock(stats_mutex_);
+          ++stats_.judged;
+          stats_.update_latency_ms.push_back(latency_ms);
+        }
+      }
+      {
+        std::lock_guard lock(state_mutex_);
+        newest_state_ = motion_.state();
+        if (!options_.live) states_[frame] = newest_state_;
+        frames_done_ = ++frame;
+      }
+      state_changed_.notify_all();
+      {
+        std::lock_guard lock(snapshot_mutex_);
+        latest_ = snapshot;
+      }
+      {
+        std::lock_guard lock(stats_mutex_);
+        ++stats_.frames_done;
+      }
+      if (on_frame_) on_frame_(snapshot);
+    }
+  } catch (...) {
+    Fail(std::current_exception());
+  }
+}
+
+void Runtime::SolveLoop() {
+  try {
+    while (true) {
+      std::unique_lock lock(solve_mutex_);
+      solve_changed_.wait(lock, [&] { return stopping_ || solve_job_.has_value(); });
+      if (!solve_job_) return;  // Stopping with nothing to solve.
+      const CalibrationJob job = std::move(*solve_job_);
+      solve_job_.reset();
+      lock.unlock();
+      const auto start = Clock::now();
+      SelfCalibrationResult result = solve_(job);
+      const double ms = MillisecondsSince(start);
+      lock.lock();
+      solve_result_ = std::move(result);
+      solve_ms_ = ms;
+      lock.unlock();
+      solve_changed_.notify_all();
+    }
+  } catch (...) {
+    Fail(std::current_exception());
+  }
+}
+
+void PushSequence(const Sequence& sequence, Runtime* runtime) {
+  const std::vector<AccelSample>& samples = sequence.accel();
+  size_t fed = 0;
+  for (size_t i = 0; i < sequence.frame_count(); ++i) {
+    const int64_t t_ns = sequence.frame_time_ns(i);
+    const size_t first = fed;
+    while (fed < samples.size() &&
+           samples[fed].t_ns + runtime->accel_offset_ns() <= t_ns + runtime->accel_lead_ns()) {
+      ++fed;
+    }
+    runtime->PushAccel(std::span(samples).subspan(first, fed - first));
+    runtime->PushFrame(t_ns, sequence.LoadFrame(i));
+  }
+  runtime->Finish();
+}
+
+}  // namespace autocal

@@ -1,0 +1,232 @@
+// Boxes 1-10 on threads, as the paper runs them: boxes 1-3 (LensHalf) on one thread,
+// boxes 4-9 and the judging of attempts (MotionHalf) on another, joined by frame
+// timestamps through a bounded queue, and box 10's solve on a worker of its own so that
+// per-frame work never waits for it. Frames and accelerometer samples are pushed in by
+// the caller; every processed frame is published as an immutable snapshot that any thread
+// may take without locking the pipeline. See docs/runtime.md.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <exception>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "devices/sequence.h"
+#include "pipeline/calibration_pipeline.h"
+
+namespace autocal {
+
+// A queue between two threads that holds at most `capacity` items.
+template <typename T>
+class BoundedQueue {
+ public:
+  explicit BoundedQueue(size_t capacity) : capacity_(capacity) {}
+
+  // Waits while the queue is full. False (and the item dropped) once closed.
+  bool Push(T item) {
+    std::unique_lock lock(mutex_);
+    not_full_.wait(lock, [&] { return closed_ || items_.size() < capacity_; });
+    if (closed_) return false;
+    items_.push_back(std::move(item));
+    not_empty_.notify_one();
+    return true;
+  }
+  // Never waits: when the queue is full its oldest item makes room. Returns the number of
+  // items dropped (0 or 1; the new item too when closed).
+  int PushDroppingOldest(T item) {
+    std::lock_guard lock(mutex_);
+    if (closed_) return 1;
+    int dropped = 0;
+    if (items_.size() >= capacity_) {
+      items_.pop_front();
+      dropped = 1;
+    }
+    items_.push_back(std::move(item));
+    not_empty_.notify_one();
+    return dropped;
+  }
+  // Waits for an item; nothing once the queue is closed and empty.
+  std::optional<T> Pop() {
+    std::unique_lock lock(mutex_);
+    not_empty_.wait(lock, [&] { return closed_ || !items_.empty(); });
+    if (items_.empty()) return std::nullopt;
+    T item = std::move(items_.front());
+    items_.pop_front();
+    not_full_.notify_one();
+    return item;
+  }
+  // Items already queued can still be taken; pushes fail from now on.
+  void Close() {
+    std::lock_guard lock(mutex_);
+    closed_ = true;
+    not_empty_.notify_all();
+    not_full_.notify_all();
+  }
+
+ private:
+  const size_t capacity_;
+  std::mutex mutex_;
+  std::condition_variable not_empty_, not_full_;
+  std::deque<T> items_;
+  bool closed_ = false;
+};
+
+struct RuntimeOptions {
+  // Live: the camera must never wait. When the pipeline falls behind, the oldest frame not
+  // yet started is dropped (and counted), boxes 1-3 take the newest calibration there is,
+  // and each attempt is judged on the first frame after its solve ends. Offline: every
+  // frame is processed, and what each frame sees is fixed by frame counts, not by thread
+  // timing, so that two runs give the same results.
+  bool live = false;
+  size_t frame_queue = 4;  // Frames waiting for boxes 1-3 (live: the oldest dropped beyond).
+  size_t lens_queue = 2;   // Frames done by boxes 1-3 waiting for boxes 4-9.
+  // Offline: an attempt made on frame i is judged on frame i + this, waiting for its solve
+  // if it has not ended (0: on frame i itself, as CalibrationPipeline::Process does).
+  int judge_after_frames = 3;
+  // Offline: boxes 1-3 on frame i work with the calibration as it was after frame
+  // i - this, waiting for it if needed; boxes 1-3 run at most this many frames ahead.
+  int calibration_lag_frames = 2;
+  // Added to accelerometer timestamps to put them on the camera's clock.
+  double accel_time_offset_s = 0.0;
+
+  bool Check(std::string* error) const;
+};
+
+struct RuntimeStats {
+  uint64_t frames_pushed = 0;
+  uint64_t frames_dropped = 0;  // Live: frames the pipeline never started.
+  uint64_t frames_done = 0;
+  int solves = 0;              // Attempts handed to box 10.
+  int judged = 0;              // Attempts judged (a solve still running at the end is not).
+  // Per judged attempt, wall-clock ms from the moment the frame that closed its window was
+  // pushed to the moment its judgement was in effect.
+  std::vector<double> update_latency_ms;
+};
+
+class Runtime {
+ public:
+  // Called on the boxes 4-9 thread after every frame, in frame order.
+  using FrameCallback = std::function<void(const std::shared_ptr<const FrameSnapshot>&)>;
+  // Box 10 on a job, on the solve worker.
+  using Solver = std::function<SelfCalibrationResult(const CalibrationJob& job)>;
+
+  // Starts the threads. `solve`: box 10, SelfCalibrate with `pipeline.calibration` when
+  // empty. Throws Error when the options or the calibration are not valid.
+  Runtime(const CameraIntrinsics& premission, const AccelCalibration& accel,
+          const PipelineOptions& pipeline, const RuntimeOptions& options,
+          FrameCallback on_frame = {}, Solver solve = {});
+  // Stops the threads; frames still queued are not processed.
+  ~Runtime();
+  Runtime(const Runtime&) = delete;
+  Runtime& operator=(const Runtime&) = delete;
+
+  // Samples in time order, stamped on the accelerometer's clock (the offset puts them on
+  // the camera's). Box 7 of a frame at t takes every sample up to t + accel_lead_ns() on
+  // the camera's clock that has arrived by then; offline, push them before the frame for
+  // results that do not depend on timing (PushSequence does).
+  void PushAccel(std::span<const AccelSample> samples);
+  int64_t accel_lead_ns() const { return lead_ns_; }
+  int64_t accel_offset_ns() const { return offset_ns_; }
+  // An 8-bit BGR or grey frame (shared, not copied: do not write to it afterwards).
+  // Offline: waits while the queue is full. Live: never waits. Throws the Error a worker
+  // stopped on.
+  void PushFrame(int64_t t_ns, const cv::Mat& raw);
+  // Processes every frame pushed, then stops the threads. Throws the Error a worker
+  // stopped on.
+  void Finish();
+
+  // The newest frame's snapshot (null before the first); safe from any thread.
+  std::shared_ptr<const FrameSnapshot> latest() const;
+  // Safe from any thread.
+  RuntimeStats stats() const;
+  // The history of attempts: from the frame callback, or after Finish.
+  const CalibrationHistory& history() const { return motion_.history(); }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  struct RawFrame {
+    int64_t t_ns = 0;
+    cv::Mat raw;
+    Clock::time_point pushed;
+  };
+  struct HalfDone {
+    LensFrame frame;
+    Clock::time_point pushed;
+  };
+  struct Pending {
+    CalibrationJob job;
+    int64_t frame = 0;  // Frames done by boxes 4-9 when it was made.
+    Clock::time_point pushed;
+  };
+
+  void LensLoop();
+  void MotionLoop();
+  void SolveLoop();
+  CalibrationState StateFor(int64_t frame);
+  void FeedAccel(int64_t t_ns);
+  void Fail(std::exception_ptr error);
+  // Makes every thread stop at its next wait.
+  void WakeAll();
+  void RethrowFailure();
+  void Stop();
+
+  const RuntimeOptions options_;
+  const Solver solve_;
+  const int64_t lead_ns_;
+  const int64_t offset_ns_;
+  FrameCallback on_frame_;
+  LensHalf lens_;
+  MotionHalf motion_;
+  BoundedQueue<RawFrame> input_;
+  BoundedQueue<HalfDone> between_;
+
+  // Accelerometer samples not yet given to box 7, on the camera's clock.
+  std::mutex accel_mutex_;
+  std::deque<SpecificForceSample> accel_;
+
+  // The calibration after each frame done by boxes 4-9, for boxes 1-3.
+  std::mutex state_mutex_;
+  std::condition_variable state_changed_;
+  std::map<int64_t, CalibrationState> states_;  // Offline: by frame, those still needed.
+  CalibrationState newest_state_;
+  int64_t frames_done_ = 0;
+
+  // Box 10's worker: one job at a time.
+  std::mutex solve_mutex_;
+  std::condition_variable solve_changed_;
+  std::optional<CalibrationJob> solve_job_;
+  std::optional<SelfCalibrationResult> solve_result_;
+  double solve_ms_ = 0.0;
+
+  mutable std::mutex snapshot_mutex_;  // Held only to copy the pointer.
+  std::shared_ptr<const FrameSnapshot> latest_;
+
+  mutable std::mutex stats_mutex_;
+  RuntimeStats stats_;
+
+  std::atomic<bool> stopping_{false};
+  std::mutex failure_mutex_;
+  std::exception_ptr failure_;
+  bool finished_ = false;
+
+  std::thread lens_thread_, motion_thread_, solve_thread_;
+};
+
+// Feeds a recorded sequence to `runtime` frame by frame, each frame's accelerometer
+// samples (up to the frame's time plus the runtime's lead) ahead of it, then finishes.
+void PushSequence(const Sequence& sequence, Runtime* runtime);
+
+}  // namespace autocal
