@@ -295,6 +295,12 @@ FilteredCalibration CalibrationHistory::Evaluate(int regime, int64_t t_ns) const
     if (attempts_[i].t_ns <= t_ns) points.push_back(&attempts_[i]);
   }
   if (points.empty()) return out;
+  if (points.size() == 1 && points.front() == &anchor_) {
+    // Nothing accepted yet: the pre-mission calibration itself, not a fit's rounding of it.
+    out.covariance = InflatedCovariance(anchor_);
+    out.points = 1;
+    return out;
+  }
   int64_t newest = points.front()->t_ns;
   for (const AttemptRecord* a : points) newest = std::max(newest, a->t_ns);
   const double window_ns = options_.window_s * 1e9;

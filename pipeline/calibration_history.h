@@ -24,7 +24,7 @@ struct AcceptanceOptions {
   double max_sigma = 4.0;  // An attempt fits the trend (or another attempt) within this many sigma.
   // Least sigmas of an attempt, added to its covariance: box 10's scatter beyond what its
   // covariance admits (model error, correlated track noise).
-  double focal_floor_fraction = 0.002;  // fx, fy, as a fraction of the pre-mission focal length.
+  double focal_floor_fraction = 0.003;  // fx, fy, as a fraction of the pre-mission focal length.
   double principal_floor_px = 1.0;      // cx, cy.
   double distortion_floor_px = 0.5;     // Displacement caused by the distortion.
   // Distortion is compared by the displacement it causes (pixels) at this fraction of the
