@@ -102,6 +102,10 @@ int Bench(const QStringList& arguments) {
       {"resolution", "Frame size (default 640x480).", "WxH", "640x480"},
       {"seconds", "Seconds of recording (default 10).", "s", "10"},
       {"json", "Write the figures as JSON here too.", "file"},
+      {"judge-after",
+       "Offline, judge each attempt this many frames after it is made (default 3; see "
+       "docs/runtime.md).",
+       "frames", "3"},
       {"stream",
        "Render frames as the pipeline asks for them instead of beforehand (rendering is then "
        "timed): for long sessions, with the resident size sampled every 10% of the run."},
@@ -111,6 +115,13 @@ int Bench(const QStringList& arguments) {
   const double seconds = parser.value("seconds").toDouble(&seconds_ok);
   if (!seconds_ok || seconds <= 0.0) {
     return UsageError(name, "--seconds takes a positive number, got " + parser.value("seconds"),
+                      parser);
+  }
+
+  bool judge_ok = false;
+  const int judge_after = parser.value("judge-after").toInt(&judge_ok);
+  if (!judge_ok || judge_after < 0) {
+    return UsageError(name, "--judge-after takes frames, got " + parser.value("judge-after"),
                       parser);
   }
 
@@ -131,6 +142,7 @@ int Bench(const QStringList& arguments) {
     if (!dir.isValid()) throw Error("cannot make a temporary folder for the history");
     RunSettings settings;
     settings.history_path = dir.filePath("history.sqlite").toStdString();
+    settings.runtime.judge_after_frames = judge_after;
     // Resident size at each tenth of the run, and after the first minute of recording.
     std::vector<std::pair<double, double>> rss;  // (recording s, MB)
     std::optional<double> rss_after_minute;
@@ -180,6 +192,7 @@ int Bench(const QStringList& arguments) {
       json += "  \"seconds\": " + JsonNumber(report.seconds) + ",\n";
       json += "  \"wall_seconds\": " + JsonNumber(report.wall_seconds) + ",\n";
       json += "  \"fps\": " + JsonNumber(report.fps) + ",\n";
+      json += "  \"judge_after_frames\": " + std::to_string(judge_after) + ",\n";
       json += "  \"rendering_timed\": " + std::string(stream ? "true" : "false") + ",\n";
       json += "  \"timing_ms\": {";
       bool first = true;
