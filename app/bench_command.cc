@@ -103,9 +103,9 @@ int Bench(const QStringList& arguments) {
       {"seconds", "Seconds of recording (default 10).", "s", "10"},
       {"json", "Write the figures as JSON here too.", "file"},
       {"judge-after",
-       "Offline, judge each attempt this many frames after it is made (default 3; see "
+       "Offline, judge each attempt this many frames after it is made (default 0; see "
        "docs/runtime.md).",
-       "frames", "3"},
+       "frames", "0"},
       {"stream",
        "Render frames as the pipeline asks for them instead of beforehand (rendering is then "
        "timed): for long sessions, with the resident size sampled every 10% of the run."},

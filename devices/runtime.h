@@ -94,8 +94,9 @@ struct RuntimeOptions {
   size_t frame_queue = 4;  // Frames waiting for boxes 1-3 (live: the oldest dropped beyond).
   size_t lens_queue = 2;   // Frames done by boxes 1-3 waiting for boxes 4-9.
   // Offline: an attempt made on frame i is judged on frame i + this, waiting for its solve
-  // if it has not ended (0: on frame i itself, as CalibrationPipeline::Process does).
-  int judge_after_frames = 3;
+  // if it has not ended (0: on frame i itself, as CalibrationPipeline::Process does; more
+  // overlaps the solve with later frames but moves the history's verdicts later).
+  int judge_after_frames = 0;
   // Offline: boxes 1-3 on frame i work with the calibration as it was after frame
   // i - this, waiting for it if needed; boxes 1-3 run at most this many frames ahead.
   int calibration_lag_frames = 2;
