@@ -246,6 +246,11 @@ TEST_F(EmulatedUsb, HidSensorAccelerometerIsFoundAndStreams) {
   StreamAndCheck(bed, hub, accelerometer, 0, 40, before);
   // Another sensor's report on the same endpoint is counted, not decoded.
   ASSERT_TRUE(bed.SendReport(hub, AccelReport(1, 2, 3, /*report_id=*/2)));
+  // It is read on the driver's event thread: wait for it to be counted.
+  const auto deadline = std::chrono::steady_clock::now() + 3s;
+  while (accelerometer.stats().reports < 41u && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(2ms);
+  }
   const UsbAccelerometerStats stats = accelerometer.stats();
   EXPECT_TRUE(stats.connected);
   EXPECT_EQ(stats.reports, 41u);
