@@ -1,9 +1,9 @@
 // Runs a recorded or simulated sequence through boxes 1-10 headless on the threaded
 // runtime (devices/runtime.h) in its offline mode, as fast as the machine allows and with
 // results that do not depend on thread timing, feeding the accelerometer ahead of the
-// frames, recording
-// every calibration attempt in the history file, and measuring the result against the
-// ground truth where the sequence has it. `autocal run` and the end-to-end tests use it.
+// frames, recording every calibration attempt in the history file, and measuring the
+// result against the ground truth where the sequence has it. `autocal run` and the
+// end-to-end tests use it.
 #pragma once
 
 #include <cstdint>
@@ -24,7 +24,7 @@ struct RunSettings {
   PipelineOptions pipeline;
   // The calibration to start from; without one, the sequence's pre-mission calibration.
   std::optional<CameraIntrinsics> prior;
-  std::string history_path;  // SQLite history file to append to; empty: none.
+  std::string history_path;  // SQLite history file to write (new or empty); empty: none.
   // Added to accelerometer timestamps to put them on the camera's clock.
   double accel_time_offset_s = 0.0;
   // Threads and queues (its accel_time_offset_s is replaced by the one above).
