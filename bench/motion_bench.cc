@@ -14,6 +14,7 @@
 #include "pipeline/inertial.h"
 #include "pipeline/motion_stage.h"
 #include "pipeline/rectifier.h"
+#include "pipeline/stopwatch.h"
 
 namespace autocal {
 namespace {
@@ -66,6 +67,36 @@ size_t PingPong(size_t step, size_t frames) {
   return k < frames ? k : period - k;
 }
 
+// Per-frame figures of boxes 4-7 summed over the timed frames, reported as means.
+struct MotionTotals {
+  double features = 0.0, flow = 0.0, planes = 0.0, refind = 0.0, inertial = 0.0, tracks = 0.0,
+         found = 0.0;
+
+  void Add(const MotionSnapshot& snapshot) {
+    features += snapshot.features_ms;
+    flow += snapshot.flow_ms;
+    planes += snapshot.planes_ms;
+    refind += snapshot.refind_ms;
+    inertial += snapshot.inertial.inertial_ms;
+    tracks += double(snapshot.tracks.size());
+    found += double(snapshot.planes.size());
+  }
+
+  // `with_inertial`: box 7 ran too, so its time is reported.
+  void Report(benchmark::State& state, bool with_inertial) const {
+    const double n = double(state.iterations());
+    state.counters["features_ms"] = features / n;
+    state.counters["flow_ms"] = flow / n;
+    state.counters["planes_ms"] = planes / n;
+    state.counters["refind_ms"] = refind / n;
+    if (with_inertial) state.counters["inertial_ms"] = inertial / n;
+    state.counters["tracks"] = tracks / n;
+    state.counters["planes"] = found / n;
+    state.SetItemsProcessed(state.iterations());
+    state.SetLabel("items/s = frames/s");
+  }
+};
+
 void BM_MotionBoxes(benchmark::State& state) {
   const Clip& clip = OfficeClip(int(state.range(0)), int(state.range(1)));
   MotionStage stage;
@@ -74,26 +105,14 @@ void BM_MotionBoxes(benchmark::State& state) {
   for (; step < 30; ++step) {
     stage.Process(clip.times[step], clip.frames[step], clip.camera);
   }
-  double features = 0.0, flow = 0.0, planes = 0.0, tracks = 0.0, found = 0.0;
+  MotionTotals totals;
   int64_t t = clip.times[step];
   for (auto _ : state) {
     const size_t i = PingPong(step++, clip.frames.size());
     t += 33'333'333;
-    const MotionSnapshot snapshot = stage.Process(t, clip.frames[i], clip.camera);
-    features += snapshot.features_ms;
-    flow += snapshot.flow_ms;
-    planes += snapshot.planes_ms;
-    tracks += snapshot.tracks.size();
-    found += snapshot.planes.size();
+    totals.Add(stage.Process(t, clip.frames[i], clip.camera));
   }
-  const double n = double(state.iterations());
-  state.counters["features_ms"] = features / n;
-  state.counters["flow_ms"] = flow / n;
-  state.counters["planes_ms"] = planes / n;
-  state.counters["tracks"] = tracks / n;
-  state.counters["planes"] = found / n;
-  state.SetItemsProcessed(state.iterations());
-  state.SetLabel("items/s = frames/s");
+  totals.Report(state, /*with_inertial=*/false);
 }
 BENCHMARK(BM_MotionBoxes)
     ->Args({320, 240})
@@ -132,35 +151,14 @@ void BM_MotionAndInertial(benchmark::State& state) {
       benchmark::DoNotOptimize(
           inertial.EstimateScale(std::span(clip.poses).subspan(first, i + 1 - first)));
     }
-    snapshot.inertial.inertial_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-            .count();
+    snapshot.inertial.inertial_ms = MillisecondsSince(start);
     return snapshot;
   };
   size_t i = 0;
   for (; i < kStartupFrames; ++i) process(i);
-  double features = 0.0, flow = 0.0, planes = 0.0, refind = 0.0, box7 = 0.0, tracks = 0.0,
-         found = 0.0;
-  for (auto _ : state) {
-    const MotionSnapshot snapshot = process(i++);
-    features += snapshot.features_ms;
-    flow += snapshot.flow_ms;
-    planes += snapshot.planes_ms;
-    refind += snapshot.refind_ms;
-    box7 += snapshot.inertial.inertial_ms;
-    tracks += snapshot.tracks.size();
-    found += snapshot.planes.size();
-  }
-  const double n = double(state.iterations());
-  state.counters["features_ms"] = features / n;
-  state.counters["flow_ms"] = flow / n;
-  state.counters["planes_ms"] = planes / n;
-  state.counters["refind_ms"] = refind / n;
-  state.counters["inertial_ms"] = box7 / n;
-  state.counters["tracks"] = tracks / n;
-  state.counters["planes"] = found / n;
-  state.SetItemsProcessed(state.iterations());
-  state.SetLabel("items/s = frames/s");
+  MotionTotals totals;
+  for (auto _ : state) totals.Add(process(i++));
+  totals.Report(state, /*with_inertial=*/true);
 }
 BENCHMARK(BM_MotionAndInertial)
     ->Args({320, 240})

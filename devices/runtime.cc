@@ -209,8 +209,7 @@ void Runtime::MotionLoop() {
           snapshot->attempt = motion_.Judge(pending->job, result);
           snapshot->calibration = motion_.state().filtered;
           snapshot->timing.history_ms = MillisecondsSince(start);
-          const double latency_ms =
-              std::chrono::duration<double, std::milli>(Clock::now() - pending->pushed).count();
+          const double latency_ms = MillisecondsSince(pending->pushed);
           pending.reset();
           std::lock_guard stats_lock(stats_mutex_);
           ++stats_.judged;

@@ -6,6 +6,8 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "pipeline/stopwatch.h"
+
 namespace autocal {
 
 bool InertialOptions::Check(std::string* error) const {
@@ -124,8 +126,7 @@ InertialSnapshot InertialStage::Process(int64_t t_ns, const std::optional<Visual
   // One reading before the kept span still brackets the oldest interval.
   if (keep - samples_.begin() > 1) samples_.erase(samples_.begin(), keep - 1);
   std::erase_if(dropped_ns_, [&](int64_t t) { return t < keep_from; });
-  snapshot.process_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  snapshot.process_ms = MillisecondsSince(start);
   return snapshot;
 }
 

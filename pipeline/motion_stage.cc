@@ -6,15 +6,9 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "pipeline/stopwatch.h"
+
 namespace autocal {
-namespace {
-
-double MillisecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
-
-}  // namespace
 
 bool MotionStageOptions::Check(std::string* error) const {
   std::string nested;

@@ -24,42 +24,6 @@ namespace autocal {
 namespace {
 
 using namespace std::chrono_literals;
-using Bytes = std::vector<uint8_t>;
-
-// Report 1: sensor state, sensor event, then X, Y, Z as 16-bit signed counts of 0.01 g
-// (the HID Sensor accelerometer of usb_accelerometer_test.cc).
-// clang-format off
-const Bytes kSensorHubDescriptor = {
-    0x05, 0x20, 0x09, 0x73, 0xA1, 0x00,
-    0x85, 0x01,
-    0x0A, 0x01, 0x02, 0x15, 0x00, 0x25, 0x06,
-    0x75, 0x08, 0x95, 0x01,
-    0xA1, 0x02, 0x0A, 0x00, 0x08, 0x0A, 0x01, 0x08, 0x81, 0x00, 0xC0,
-    0x0A, 0x02, 0x02, 0x25, 0x05,
-    0xA1, 0x02, 0x0A, 0x10, 0x08, 0x0A, 0x13, 0x08, 0x81, 0x00, 0xC0,
-    0x0A, 0x53, 0x04, 0x0A, 0x54, 0x04, 0x0A, 0x55, 0x04,
-    0x16, 0x01, 0x80, 0x26, 0xFF, 0x7F,
-    0x75, 0x10, 0x95, 0x03, 0x55, 0x0E,
-    0x81, 0x02,
-    0xC0,
-};
-// clang-format on
-
-Bytes AccelReport(int x, int y, int z) {
-  Bytes report = {0x01, 0x01, 0x03};  // Report 1, state Ready, event Data Updated.
-  for (int v : {x, y, z}) {
-    report.push_back(static_cast<uint8_t>(v & 0xff));
-    report.push_back(static_cast<uint8_t>((v >> 8) & 0xff));
-  }
-  return report;
-}
-
-test::EmulatedHidDevice SensorHub() {
-  test::EmulatedHidDevice device;
-  device.report_descriptor = kSensorHubDescriptor;
-  return device;
-}
-
 std::vector<std::string> ReadLines(const std::filesystem::path& path) {
   std::ifstream in(path);
   std::vector<std::string> lines;
@@ -71,7 +35,7 @@ TEST(LiveSourceUsb, CameraAndUsbAccelerometerRecordedTogether) {
   if (!test::RunningUnderUmockdevWrapper())
     GTEST_SKIP() << "needs umockdev-wrapper (ctest runs it so)";
   test::UsbTestbed bed;  // Before libusb_init, which the source's Start() calls.
-  const int first = bed.Plug(SensorHub());
+  const int first = bed.Plug(test::HidSensorHub());
   test::TempDir dir;
   const std::string video = dir / "camera.avi";
   {
@@ -92,15 +56,15 @@ TEST(LiveSourceUsb, CameraAndUsbAccelerometerRecordedTogether) {
   std::string feeder_error;
   std::thread feeder([&] {
     for (int i = 0; i < 40; ++i) {
-      if (!bed.SendReport(first, AccelReport(i, -i, 100)))
+      if (!bed.SendReport(first, test::HidSensorAccelReport(i, -i, 100)))
         feeder_error = "report " + std::to_string(i);
       std::this_thread::sleep_for(3ms);
     }
     bed.Unplug(first);
     std::this_thread::sleep_for(100ms);
-    const int second = bed.Plug(SensorHub());
+    const int second = bed.Plug(test::HidSensorHub());
     for (int i = 100; i < 120; ++i) {
-      if (!bed.SendReport(second, AccelReport(i, -i, 100)))
+      if (!bed.SendReport(second, test::HidSensorAccelReport(i, -i, 100)))
         feeder_error = "report " + std::to_string(i);
       std::this_thread::sleep_for(3ms);
     }

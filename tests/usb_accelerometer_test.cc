@@ -100,24 +100,6 @@ TEST(UsbAccelerometerOptions, DefaultsAreValidAndMistakesNamed) {
 
 // --- Against emulated devices ------------------------------------------------------
 
-// Report 1: sensor state, sensor event, then X, Y, Z as 16-bit signed counts of 0.01 g.
-// clang-format off
-const Bytes kSensorHubDescriptor = {
-    0x05, 0x20, 0x09, 0x73, 0xA1, 0x00,        // Sensors, Accelerometer 3D, Collection
-    0x85, 0x01,                                //   Report ID (1)
-    0x0A, 0x01, 0x02, 0x15, 0x00, 0x25, 0x06,  //   Sensor State, 0..6
-    0x75, 0x08, 0x95, 0x01,                    //   8 bits x 1
-    0xA1, 0x02, 0x0A, 0x00, 0x08, 0x0A, 0x01, 0x08, 0x81, 0x00, 0xC0,
-    0x0A, 0x02, 0x02, 0x25, 0x05,              //   Sensor Event, 0..5
-    0xA1, 0x02, 0x0A, 0x10, 0x08, 0x0A, 0x13, 0x08, 0x81, 0x00, 0xC0,
-    0x0A, 0x53, 0x04, 0x0A, 0x54, 0x04, 0x0A, 0x55, 0x04,  // Acceleration X, Y, Z
-    0x16, 0x01, 0x80, 0x26, 0xFF, 0x7F,        //   -32767..32767
-    0x75, 0x10, 0x95, 0x03, 0x55, 0x0E,        //   16 bits x 3, exponent -2
-    0x81, 0x02,                                //   Input (Data, Variable, Absolute)
-    0xC0,
-};
-// clang-format on
-
 // A vendor HID keypad: a sensor it is not.
 // clang-format off
 const Bytes kKeypadDescriptor = {
@@ -126,20 +108,6 @@ const Bytes kKeypadDescriptor = {
 };
 // clang-format on
 
-Bytes AccelReport(int x, int y, int z, uint8_t report_id = 1) {
-  Bytes report = {report_id, 0x01, 0x03};  // State Ready, event Data Updated.
-  for (int v : {x, y, z}) {
-    report.push_back(static_cast<uint8_t>(v & 0xff));
-    report.push_back(static_cast<uint8_t>((v >> 8) & 0xff));
-  }
-  return report;
-}
-
-test::EmulatedHidDevice SensorHub() {
-  test::EmulatedHidDevice device;
-  device.report_descriptor = kSensorHubDescriptor;
-  return device;
-}
 
 test::EmulatedHidDevice Keypad() {
   test::EmulatedHidDevice device;
@@ -198,7 +166,7 @@ class EmulatedUsb : public ::testing::Test {
 void StreamAndCheck(test::UsbTestbed& bed, int id, UsbAccelerometer& accelerometer, int first,
                     int count, int64_t after_ns) {
   for (int i = first; i < first + count; ++i) {
-    ASSERT_TRUE(bed.SendReport(id, AccelReport(i, -i, 100))) << "report " << i;
+    ASSERT_TRUE(bed.SendReport(id, test::HidSensorAccelReport(i, -i, 100))) << "report " << i;
     std::this_thread::sleep_for(500us);
   }
   ASSERT_TRUE(accelerometer.WaitForSamples(count, 3s));
@@ -220,7 +188,7 @@ TEST_F(EmulatedUsb, HidSensorAccelerometerIsFoundAndStreams) {
   test::UsbTestbed bed;  // Before libusb_init, which the driver's Start() calls.
   const int keypad = bed.Plug(Keypad());
   const int mouse = bed.Plug(BootMouse());
-  const int hub = bed.Plug(SensorHub());
+  const int hub = bed.Plug(test::HidSensorHub());
   UsbAccelerometer accelerometer;
   const int64_t before = MonotonicNowNs();
   accelerometer.Start();
@@ -245,7 +213,7 @@ TEST_F(EmulatedUsb, HidSensorAccelerometerIsFoundAndStreams) {
 
   StreamAndCheck(bed, hub, accelerometer, 0, 40, before);
   // Another sensor's report on the same endpoint is counted, not decoded.
-  ASSERT_TRUE(bed.SendReport(hub, AccelReport(1, 2, 3, /*report_id=*/2)));
+  ASSERT_TRUE(bed.SendReport(hub, test::HidSensorAccelReport(1, 2, 3, /*report_id=*/2)));
   // It is read on the driver's event thread: wait for it to be counted.
   const auto deadline = std::chrono::steady_clock::now() + 3s;
   while (accelerometer.stats().reports < 41u && std::chrono::steady_clock::now() < deadline) {
@@ -269,11 +237,11 @@ TEST_F(EmulatedUsb, HidSensorAccelerometerIsFoundAndStreams) {
 
 TEST_F(EmulatedUsb, UnplugKeepsTheSamplesBeforeItAndReplugResumes) {
   test::UsbTestbed bed;
-  const int first = bed.Plug(SensorHub());
+  const int first = bed.Plug(test::HidSensorHub());
   UsbAccelerometer accelerometer;
   const int64_t before = MonotonicNowNs();
   accelerometer.Start();
-  for (int i = 0; i < 20; ++i) ASSERT_TRUE(bed.SendReport(first, AccelReport(i, -i, 100)));
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(bed.SendReport(first, test::HidSensorAccelReport(i, -i, 100)));
   ASSERT_TRUE(accelerometer.WaitForSamples(20, 3s));
 
   // Pulled out mid-stream, with transfers pending.
@@ -292,14 +260,14 @@ TEST_F(EmulatedUsb, UnplugKeepsTheSamplesBeforeItAndReplugResumes) {
   EXPECT_GT(kept.front().t_ns, before);
 
   // Plugged back in (a new device address): the same session goes on.
-  const int second = bed.Plug(SensorHub());
+  const int second = bed.Plug(test::HidSensorHub());
   const auto back = WaitForEvent(accelerometer, Kind::kConnected, &events);
   ASSERT_TRUE(back.has_value());
   EXPECT_NE(back->message.find("bus 1 device 3"), std::string::npos) << back->message;
   EXPECT_EQ(bed.report_descriptor_requests(second), 1);
   // The time unplugged is no gap in the stream: the first sample after it starts anew.
   const uint64_t late_before = accelerometer.stats().late_reports;
-  ASSERT_TRUE(bed.SendReport(second, AccelReport(99, -99, 100)));
+  ASSERT_TRUE(bed.SendReport(second, test::HidSensorAccelReport(99, -99, 100)));
   ASSERT_TRUE(accelerometer.WaitForSamples(1, 3s));
   EXPECT_EQ(accelerometer.stats().late_reports, late_before);
   ASSERT_GT(accelerometer.Drain().front().t_ns, lost->t_ns);
@@ -321,7 +289,7 @@ TEST_F(EmulatedUsb, NoAccelerometerListsTheDevicesSeen) {
   test::UsbTestbed bed;
   bed.Plug(Keypad());
   bed.Plug(BootMouse());
-  test::EmulatedHidDevice hidden = SensorHub();
+  test::EmulatedHidDevice hidden = test::HidSensorHub();
   hidden.report_descriptor_in_sysfs = false;  // Bound to a driver, nothing in sysfs.
   const int hub = bed.Plug(hidden);
   EXPECT_EQ(StartError({}),
@@ -348,7 +316,7 @@ TEST_F(EmulatedUsb, NoAccelerometerListsTheDevicesSeen) {
 TEST_F(EmulatedUsb, PermissionDeniedNamesTheUdevRules) {
   if (geteuid() == 0) GTEST_SKIP() << "root opens any device node";
   test::UsbTestbed bed;
-  test::EmulatedHidDevice locked = SensorHub();
+  test::EmulatedHidDevice locked = test::HidSensorHub();
   locked.node_accessible = false;
   bed.Plug(locked);
   EXPECT_EQ(StartError({}),
@@ -363,7 +331,7 @@ TEST_F(EmulatedUsb, WaitsForTheDeviceWhenAsked) {
   UsbAccelerometer accelerometer(options);
   accelerometer.Start();
   EXPECT_FALSE(accelerometer.stats().connected);
-  const int hub = bed.Plug(SensorHub());
+  const int hub = bed.Plug(test::HidSensorHub());
   std::vector<UsbAccelerometerEvent> events;
   ASSERT_TRUE(WaitForEvent(accelerometer, Kind::kConnected, &events).has_value());
   StreamAndCheck(bed, hub, accelerometer, 0, 10, 0);
@@ -402,12 +370,12 @@ TEST_F(EmulatedUsb, MappedDeviceIsReadWithoutItsReportDescriptor) {
 
 TEST_F(EmulatedUsb, FullQueueDropsTheOldestSamples) {
   test::UsbTestbed bed;
-  const int hub = bed.Plug(SensorHub());
+  const int hub = bed.Plug(test::HidSensorHub());
   UsbAccelerometerOptions options;
   options.queue_capacity = 5;
   UsbAccelerometer accelerometer(options);
   accelerometer.Start();
-  for (int i = 0; i < 12; ++i) ASSERT_TRUE(bed.SendReport(hub, AccelReport(i, 0, 0)));
+  for (int i = 0; i < 12; ++i) ASSERT_TRUE(bed.SendReport(hub, test::HidSensorAccelReport(i, 0, 0)));
   const auto deadline = std::chrono::steady_clock::now() + 3s;
   while (accelerometer.stats().samples < 12 && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(1ms);

@@ -457,4 +457,35 @@ bool RunningUnderUmockdevWrapper() {
   return preload != nullptr && std::strstr(preload, "libumockdev-preload") != nullptr;
 }
 
+EmulatedHidDevice HidSensorHub() {
+  // clang-format off
+  const std::vector<uint8_t> descriptor = {
+      0x05, 0x20, 0x09, 0x73, 0xA1, 0x00,        // Sensors, Accelerometer 3D, Collection
+      0x85, 0x01,                                //   Report ID (1)
+      0x0A, 0x01, 0x02, 0x15, 0x00, 0x25, 0x06,  //   Sensor State, 0..6
+      0x75, 0x08, 0x95, 0x01,                    //   8 bits x 1
+      0xA1, 0x02, 0x0A, 0x00, 0x08, 0x0A, 0x01, 0x08, 0x81, 0x00, 0xC0,
+      0x0A, 0x02, 0x02, 0x25, 0x05,              //   Sensor Event, 0..5
+      0xA1, 0x02, 0x0A, 0x10, 0x08, 0x0A, 0x13, 0x08, 0x81, 0x00, 0xC0,
+      0x0A, 0x53, 0x04, 0x0A, 0x54, 0x04, 0x0A, 0x55, 0x04,  // Acceleration X, Y, Z
+      0x16, 0x01, 0x80, 0x26, 0xFF, 0x7F,        //   -32767..32767
+      0x75, 0x10, 0x95, 0x03, 0x55, 0x0E,        //   16 bits x 3, exponent -2
+      0x81, 0x02,                                //   Input (Data, Variable, Absolute)
+      0xC0,
+  };
+  // clang-format on
+  EmulatedHidDevice device;
+  device.report_descriptor = descriptor;
+  return device;
+}
+
+std::vector<uint8_t> HidSensorAccelReport(int x, int y, int z, uint8_t report_id) {
+  std::vector<uint8_t> report = {report_id, 0x01, 0x03};  // State Ready, event Data Updated.
+  for (int v : {x, y, z}) {
+    report.push_back(static_cast<uint8_t>(v & 0xff));
+    report.push_back(static_cast<uint8_t>((v >> 8) & 0xff));
+  }
+  return report;
+}
+
 }  // namespace autocal::test

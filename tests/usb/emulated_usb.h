@@ -68,6 +68,12 @@ class UsbTestbed {
   int next_devnum_ = 2;
 };
 
+// A HID Sensor Accelerometer 3D: report 1 holds the sensor state, the sensor event, then
+// X, Y, Z as 16-bit signed counts of 0.01 g.
+EmulatedHidDevice HidSensorHub();
+// One input report of it (`report_id` other than 1: another sensor's report).
+std::vector<uint8_t> HidSensorAccelReport(int x, int y, int z, uint8_t report_id = 1);
+
 // True when the process runs under umockdev-wrapper (libumockdev-preload is loaded).
 bool RunningUnderUmockdevWrapper();
 
