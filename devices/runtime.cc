@@ -1,9 +1,12 @@
 #include "devices/runtime.h"
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <utility>
 
 #include "pipeline/error.h"
+#include "pipeline/option_fields.h"
 #include "pipeline/stopwatch.h"
 
 namespace autocal {
@@ -35,14 +38,12 @@ Runtime::Runtime(const CameraIntrinsics& premission, const AccelCalibration& acc
                  const PipelineOptions& pipeline, const RuntimeOptions& options,
                  FrameCallback on_frame, Solver solve)
     : options_(Checked(options)),
-      solve_(solve ? std::move(solve)
-                   : Solver([options = pipeline.calibration](const CalibrationJob& job) {
-                       return SelfCalibrate(job.material, job.prior, options);
-                     })),
+      solve_(std::move(solve)),
       // Box 7 tests rest over a window centred on each frame: readings run half of it ahead.
       lead_ns_(static_cast<int64_t>(0.5 * pipeline.inertial.quasi_static.window_s * 1e9)),
       offset_ns_(static_cast<int64_t>(std::llround(options.accel_time_offset_s * 1e9))),
       on_frame_(std::move(on_frame)),
+      changes_{{0, 0, pipeline}},
       lens_(pipeline),
       motion_(premission, accel, pipeline),
       input_(options.frame_queue),
@@ -97,7 +98,11 @@ void Runtime::PushAccel(std::span<const AccelSample> samples) {
 
 void Runtime::PushFrame(int64_t t_ns, const cv::Mat& raw) {
   RethrowFailure();
-  RawFrame frame{t_ns, raw, Clock::now()};
+  RawFrame frame{0, t_ns, raw, Clock::now()};
+  {
+    std::lock_guard lock(options_mutex_);
+    frame.index = next_index_++;
+  }
   {
     std::lock_guard lock(stats_mutex_);
     ++stats_.frames_pushed;
@@ -122,6 +127,44 @@ void Runtime::Finish() {
     Stop();
   }
   RethrowFailure();
+}
+
+void Runtime::SetOptions(const PipelineOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw Error("pipeline options: " + why);
+  std::lock_guard lock(options_mutex_);
+  for (const OptionField& field : PipelineOptionFields()) {
+    if (field.name.starts_with("acceptance.") &&
+        field.get(options) != field.get(changes_.back().options)) {
+      throw Error("pipeline options: " + field.name +
+                  " cannot change during a run: the history judges every attempt by the "
+                  "same acceptance thresholds");
+    }
+  }
+  const int64_t id = changes_.back().id + 1;
+  // A change no frame has reached yet is replaced (a spin box dragged while paused).
+  if (changes_.back().from_index == next_index_) changes_.pop_back();
+  // Changes both threads have gone past, all but the one in effect there.
+  const auto current = std::find_if(changes_.rbegin(), changes_.rend(), [&](const auto& c) {
+    return c.from_index <= motion_index_;
+  });
+  if (current != changes_.rend()) changes_.erase(changes_.begin(), std::prev(current.base()));
+  changes_.push_back({id, next_index_, options});
+}
+
+PipelineOptions Runtime::options() const {
+  std::lock_guard lock(options_mutex_);
+  return changes_.back().options;
+}
+
+std::optional<PipelineOptions> Runtime::OptionsFor(int64_t index, int64_t* applied) const {
+  std::lock_guard lock(options_mutex_);
+  const auto change = std::find_if(changes_.rbegin(), changes_.rend(), [&](const auto& c) {
+    return c.from_index <= index;
+  });
+  if (change == changes_.rend() || change->id == *applied) return std::nullopt;
+  *applied = change->id;
+  return change->options;
 }
 
 std::shared_ptr<const FrameSnapshot> Runtime::latest() const {
@@ -150,10 +193,12 @@ CalibrationState Runtime::StateFor(int64_t frame) {
 void Runtime::LensLoop() {
   try {
     int64_t frame = 0;
+    int64_t applied = 0;
     while (std::optional<RawFrame> raw = input_.Pop()) {
       if (stopping_) break;
+      if (auto options = OptionsFor(raw->index, &applied)) lens_.set_options(*options);
       LensFrame done = lens_.Process(raw->t_ns, raw->raw, StateFor(frame++));
-      if (!between_.Push({std::move(done), raw->pushed})) break;
+      if (!between_.Push({raw->index, std::move(done), raw->pushed})) break;
     }
   } catch (...) {
     Fail(std::current_exception());
@@ -177,8 +222,14 @@ void Runtime::MotionLoop() {
   try {
     std::optional<Pending> pending;
     int64_t frame = 0;
+    int64_t applied = 0;
     while (std::optional<HalfDone> half = between_.Pop()) {
       if (stopping_) break;
+      {
+        std::lock_guard lock(options_mutex_);
+        motion_index_ = half->index;
+      }
+      if (auto options = OptionsFor(half->index, &applied)) motion_.set_options(*options);
       FeedAccel(half->frame.t_ns);
       std::optional<CalibrationJob> job;
       auto snapshot =
@@ -188,6 +239,7 @@ void Runtime::MotionLoop() {
         {
           std::lock_guard lock(solve_mutex_);
           solve_job_ = std::move(job);
+          solve_options_ = motion_.options().calibration;
         }
         solve_changed_.notify_all();
         std::lock_guard lock(stats_mutex_);
@@ -245,10 +297,12 @@ void Runtime::SolveLoop() {
       solve_changed_.wait(lock, [&] { return stopping_ || solve_job_.has_value(); });
       if (!solve_job_) return;  // Stopping with nothing to solve.
       const CalibrationJob job = std::move(*solve_job_);
+      const SelfCalibrationOptions options = solve_options_;
       solve_job_.reset();
       lock.unlock();
       const auto start = Clock::now();
-      SelfCalibrationResult result = solve_(job);
+      SelfCalibrationResult result =
+          solve_ ? solve_(job) : SelfCalibrate(job.material, job.prior, options);
       const double ms = MillisecondsSince(start);
       lock.lock();
       solve_result_ = std::move(result);

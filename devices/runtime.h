@@ -124,8 +124,9 @@ class Runtime {
   // Box 10 on a job, on the solve worker.
   using Solver = std::function<SelfCalibrationResult(const CalibrationJob& job)>;
 
-  // Starts the threads. `solve`: box 10, SelfCalibrate with `pipeline.calibration` when
-  // empty. Throws Error when the options or the calibration are not valid.
+  // Starts the threads. `solve`: box 10; when empty, SelfCalibrate with the box 10 options
+  // in effect when the job was made. Throws Error when the options or the calibration are
+  // not valid.
   Runtime(const CameraIntrinsics& premission, const AccelCalibration& accel,
           const PipelineOptions& pipeline, const RuntimeOptions& options,
           FrameCallback on_frame = {}, Solver solve = {});
@@ -149,6 +150,17 @@ class Runtime {
   // stopped on.
   void Finish();
 
+  // New options for boxes 1-10, from any thread: they apply from the next frame pushed
+  // (the next PushFrame call to begin after this returns) on, in both halves and for the
+  // attempts made from then on, so that offline where they apply does not depend on thread
+  // timing; live, from the first frame after it that is not dropped. Throws Error with the
+  // reason, the options in effect unchanged, when they fail PipelineOptions::Check or
+  // change the acceptance thresholds (the history judges every attempt by one set).
+  // The accelerometer's lead (accel_lead_ns) stays as the options at construction set it.
+  void SetOptions(const PipelineOptions& options);
+  // The options set last (those in effect from the next frame pushed); safe from any thread.
+  PipelineOptions options() const;
+
   // The newest frame's snapshot (null before the first); safe from any thread.
   std::shared_ptr<const FrameSnapshot> latest() const;
   // Safe from any thread.
@@ -159,13 +171,21 @@ class Runtime {
  private:
   using Clock = std::chrono::steady_clock;
   struct RawFrame {
+    int64_t index = 0;  // Pushed before it.
     int64_t t_ns = 0;
     cv::Mat raw;
     Clock::time_point pushed;
   };
   struct HalfDone {
+    int64_t index = 0;
     LensFrame frame;
     Clock::time_point pushed;
+  };
+  // Options set by SetOptions, to apply from the frame pushed as `from_index` on.
+  struct OptionsChange {
+    int64_t id = 0;  // Counts SetOptions calls: which change a thread applied last.
+    int64_t from_index = 0;
+    PipelineOptions options;
   };
   struct Pending {
     CalibrationJob job;
@@ -173,6 +193,9 @@ class Runtime {
     Clock::time_point pushed;
   };
 
+  // The options for the frame pushed as `index`, if not those a thread applied last (the
+  // change `*applied`, updated).
+  std::optional<PipelineOptions> OptionsFor(int64_t index, int64_t* applied) const;
   void LensLoop();
   void MotionLoop();
   void SolveLoop();
@@ -189,6 +212,13 @@ class Runtime {
   const int64_t lead_ns_;
   const int64_t offset_ns_;
   FrameCallback on_frame_;
+
+  // Frame indices and the option changes waiting for the threads (SetOptions).
+  mutable std::mutex options_mutex_;
+  int64_t next_index_ = 0;
+  std::vector<OptionsChange> changes_;  // In index order; the last is options().
+  int64_t motion_index_ = 0;            // The frame boxes 4-9 are on: older changes are done.
+
   LensHalf lens_;
   MotionHalf motion_;
   BoundedQueue<RawFrame> input_;
@@ -209,6 +239,7 @@ class Runtime {
   std::mutex solve_mutex_;
   std::condition_variable solve_changed_;
   std::optional<CalibrationJob> solve_job_;
+  SelfCalibrationOptions solve_options_;  // Box 10's options for solve_job_.
   std::optional<SelfCalibrationResult> solve_result_;
   double solve_ms_ = 0.0;
 
