@@ -1,0 +1,121 @@
+// The vest check dialog in a real window (run under Xvfb): a short simulated vest walked to
+// its verdict, the walk and result pages saved as screenshots, the verdict shown checked
+// against the check's own, and the PDF report written and checked.
+#include <QDir>
+#include <QFile>
+#include <QLabel>
+#include <QLineEdit>
+#include <QDoubleSpinBox>
+#include <QProgressBar>
+#include <QListWidget>
+#include <QSignalSpy>
+#include <QTableWidget>
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include "pipeline/vest_check.h"
+#include "widgets/vest_check_dialog.h"
+#include "widgets/vest_report.h"
+
+namespace autocal {
+namespace {
+
+// 8 s of the simulated vest at 320x240: enough for box 10 to accept updates (docs/vest_check.md).
+const QString kVest = QStringLiteral("sim:office,resolution=320x240,seconds=8");
+
+void SaveScreenshot(QWidget& widget, const QString& name) {
+  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
+  QVERIFY(QDir().mkpath(dir));
+  const QString path = QDir(dir).filePath(name);
+  QVERIFY(widget.grab().save(path, "PNG"));
+  qInfo("screenshot: %s", qPrintable(path));
+}
+
+}  // namespace
+
+class VestCheckTest : public QObject {
+  Q_OBJECT
+
+ private slots:
+  void RunsToItsVerdictAndSavesTheReport() {
+    VestCheckDialog dialog(kVest);
+    dialog.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&dialog));
+    QCOMPARE(dialog.page(), VestCheckDialog::Page::kConnect);
+    QCOMPARE(dialog.durationSpin()->value(), VestCheckOptions{}.duration_s);
+
+    QSignalSpy finished(&dialog, &VestCheckDialog::checkFinished);
+    dialog.startCheck();
+    QCOMPARE(dialog.page(), VestCheckDialog::Page::kWalk);
+    auto* guidance = dialog.findChild<QLabel*>(QStringLiteral("guidance"));
+    auto* progress = dialog.findChild<QProgressBar*>();
+    auto* checklist = dialog.findChild<QListWidget*>();
+    QVERIFY(guidance && progress && checklist);
+    // Half-way through the walk: guidance, progress and the checklist are live.
+    QTRY_VERIFY_WITH_TIMEOUT(progress->value() >= 40 || !finished.isEmpty(), 120000);
+    QVERIFY(finished.isEmpty());
+    QVERIFY(!guidance->text().isEmpty());
+    QCOMPARE(checklist->count(), kNumVestNeeds);
+    SaveScreenshot(dialog, QStringLiteral("vest_check_walk.png"));
+
+    QVERIFY(finished.wait(180000) || !finished.isEmpty());
+    QCOMPARE(dialog.page(), VestCheckDialog::Page::kResult);
+    QVERIFY(dialog.result());
+    // The simulated vest's lens is its pre-mission calibration.
+    QCOMPARE(dialog.result()->verdict, VestVerdict::kPass);
+    auto* verdict = dialog.findChild<QLabel*>(QStringLiteral("verdict"));
+    QVERIFY(verdict);
+    QCOMPARE(verdict->text(), QStringLiteral("PASS"));
+    auto* table = dialog.findChild<QTableWidget*>();
+    QVERIFY(table);
+    QCOMPARE(table->rowCount(), 5);
+    QCOMPARE(table->item(0, 0)->text(), QStringLiteral("fx"));
+    for (int row = 0; row < table->rowCount(); ++row) {
+      QCOMPARE(table->item(row, 5)->text(), QStringLiteral("pass"));
+    }
+    SaveScreenshot(dialog, QStringLiteral("vest_check_result.png"));
+
+    const QTemporaryDir dir;
+    const QString path = dir.filePath(QStringLiteral("report.pdf"));
+    QVERIFY(dialog.saveReport(path, true));
+    QFile pdf(path);
+    QVERIFY(pdf.open(QIODevice::ReadOnly));
+    const QByteArray bytes = pdf.readAll();
+    QVERIFY(bytes.startsWith("%PDF"));
+    // The page streams are compressed; the document title, in the info dictionary, is not
+    // (UTF-16 big-endian with its byte order mark, as PDF writes text strings).
+    QByteArray title("\xfe\xff");
+    for (const QChar c : QStringLiteral("autocal vest check: PASS")) {
+      title.append(char(c.unicode() >> 8)).append(char(c.unicode() & 0xff));
+    }
+    QVERIFY(bytes.contains(title));
+    if (const QString shots = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR"); !shots.isEmpty()) {
+      QFile::remove(QDir(shots).filePath(QStringLiteral("vest_check_report.pdf")));
+      QVERIFY(QFile::copy(path, QDir(shots).filePath(QStringLiteral("vest_check_report.pdf"))));
+    }
+    // A report cannot be written where there is no folder.
+    QVERIFY(!dialog.saveReport(dir.filePath(QStringLiteral("missing/report.pdf")), true));
+  }
+
+  void ReportHoldsTheVerdictReasonsAndCoverage() {
+    VestReport report;
+    report.when = QDateTime(QDate(2026, 11, 21), QTime(9, 30));
+    report.source = QStringLiteral("simulator");
+    report.result.verdict = VestVerdict::kFail;
+    report.result.reasons = {"fx is 3.62% below the pre-mission value (1.5% allowed)"};
+    report.result.criteria = {{"fx", "%", 214.85, 207.06, -3.62, 1.5, false, "fx is 3.62% below"}};
+    report.result.coverage = {{VestNeed::kStill, "Holding still", "0.0 of 2.0 s", 0.0, false}};
+    const QString html = VestReportHtml(report);
+    QVERIFY(html.contains(QStringLiteral("Verdict: FAIL")));
+    QVERIFY(html.contains(QStringLiteral("fx is 3.62% below the pre-mission value")));
+    QVERIFY(html.contains(QStringLiteral("-3.62 %")));
+    QVERIFY(html.contains(QStringLiteral("Holding still</td><td>0.0 of 2.0 s</td><td>missing")));
+    QVERIFY(html.contains(QStringLiteral("2026-11-21T09:30:00")));
+    QVERIFY(html.contains(QStringLiteral("autocal ")));
+  }
+};
+
+}  // namespace autocal
+
+QTEST_MAIN(autocal::VestCheckTest)
+#include "vest_check_test.moc"
