@@ -12,6 +12,7 @@
 
 #include "pipeline/version.h"
 #include "widgets/main_window.h"
+#include "widgets/scene_view.h"
 
 namespace {
 
@@ -79,6 +80,7 @@ int main(int argc, char** argv) {
     }
   }
 
+  autocal::SceneView::SetDefaultSurfaceFormat();  // VTK's 3-D view, before the QApplication.
   QApplication app(argc, argv);
   QCommandLineParser parser;
   const Options options = Configure(&parser);

@@ -1,0 +1,178 @@
+// The 3-D view in a real window under Xvfb (Mesa), on real snapshots: the runtime runs
+// boxes 1-10 over a short simulated office walk at 320x240, and the view is fed every
+// snapshot. The rendered framebuffer is saved (scene_view.png) and checked where the
+// scene's pieces project: the frustum's edges, the trajectory, the planes' colour, gravity.
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include <QApplication>
+#include <QDir>
+#include <QImage>
+#include <QtTest>
+
+#include "devices/runtime.h"
+#include "devices/sim/simulator.h"
+#include "widgets/scene_view.h"
+
+namespace autocal {
+namespace {
+
+QString ScreenshotPath(const QString& name) {
+  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
+  QDir().mkpath(dir);
+  return QDir(dir).filePath(name);
+}
+
+bool Near(const QColor& a, const QColor& b, int tolerance) {
+  return std::abs(a.red() - b.red()) <= tolerance && std::abs(a.green() - b.green()) <= tolerance &&
+         std::abs(a.blue() - b.blue()) <= tolerance;
+}
+
+// Whether a pixel within `radius` of `at` has `color`.
+bool ColorNear(const QImage& image, QPointF at, const QColor& color, int radius = 2) {
+  for (int dy = -radius; dy <= radius; ++dy) {
+    for (int dx = -radius; dx <= radius; ++dx) {
+      const QPoint p(int(std::lround(at.x())) + dx, int(std::lround(at.y())) + dy);
+      if (image.rect().contains(p) && Near(image.pixelColor(p), color, 30)) return true;
+    }
+  }
+  return false;
+}
+
+int CountColor(const QImage& image, const QColor& color) {
+  int count = 0;
+  for (int y = 0; y < image.height(); ++y) {
+    for (int x = 0; x < image.width(); ++x) count += Near(image.pixelColor(x, y), color, 12);
+  }
+  return count;
+}
+
+}  // namespace
+
+class SceneViewTest : public QObject {
+  Q_OBJECT
+
+ private slots:
+  void initTestCase();
+  void drawsTheNewestAttemptsScene();
+
+ private:
+  std::vector<std::shared_ptr<const FrameSnapshot>> snapshots_;
+  std::vector<GroundTruthFrame> truth_;  // Per frame.
+};
+
+void SceneViewTest::initTestCase() {
+  const std::unique_ptr<Sequence> sequence = MakeSimulatedSequence(
+      ParseScenarioSpec("office,lens=tessar,resolution=320x240,seconds=4"));
+  AccelCalibration accel;
+  accel.cam_from_accel = sequence->session().cam_from_accel;
+  Runtime runtime(*sequence->session().premission_calibration, accel, {}, {},
+                  [this](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+                    snapshots_.push_back(snapshot);
+                  });
+  PushSequence(*sequence, &runtime);
+  QCOMPARE(snapshots_.size(), sequence->frame_count());
+  truth_ = sequence->ground_truth()->front().t_ns == snapshots_.front()->t_ns
+               ? *sequence->ground_truth()
+               : std::vector<GroundTruthFrame>{};
+  QCOMPARE(truth_.size(), snapshots_.size());
+}
+
+void SceneViewTest::drawsTheNewestAttemptsScene() {
+  SceneView view;
+  view.resize(800, 640);
+  view.show();
+  QVERIFY(QTest::qWaitForWindowExposed(&view));
+  QVERIFY(!view.scene());
+
+  // Fed as the workbench feeds it: every snapshot, most without an attempt.
+  std::shared_ptr<const FrameSnapshot> newest;
+  for (const auto& snapshot : snapshots_) {
+    view.showSnapshot(snapshot);
+    if (snapshot->attempt && !snapshot->attempt->cam_from_world.empty() &&
+        !snapshot->attempt->boards.empty()) {
+      newest = snapshot;
+    }
+  }
+  QVERIFY2(newest, "the walk gives at least one posed attempt with a board");
+  QVERIFY(view.scene());
+  const SceneGeometry& scene = *view.scene();
+  // The walk never stands still long enough for box 7 to measure gravity: the newest
+  // attempt's frame is given the simulator's true gravity, as a still moment would.
+  {
+    auto with_gravity = std::make_shared<FrameSnapshot>(*newest);
+    const GroundTruthFrame& truth = truth_[size_t(newest->index)];
+    QCOMPARE(truth.t_ns, newest->t_ns);
+    with_gravity->inertial.gravity_cam =
+        truth.world_from_cam_rotation.conjugate() * Eigen::Vector3d(0.0, 0.0, -9.81);
+    newest = with_gravity;
+    view.showSnapshot(newest);
+  }
+  const std::optional<SceneGeometry> expected = MakeSceneGeometry(
+      *newest->attempt, newest->calibration.calibration, newest->inertial.gravity_cam);
+  QVERIFY(expected);
+  QCOMPARE(scene.trajectory.size(), expected->trajectory.size());
+  QVERIFY(scene.trajectory.back().isApprox(expected->trajectory.back()));
+  QVERIFY(scene.trajectory.size() >= 5);
+  QVERIFY(!scene.boards.empty());
+
+  view.resetCamera();
+  QTest::qWait(50);
+  const QImage image = view.grab3d();
+  QVERIFY(!image.isNull());
+  QVERIFY(image.save(ScreenshotPath("scene_view.png")));
+
+  // The frustum's four edges and its far rectangle, at their midpoints.
+  const auto& f = scene.frustum;
+  for (int k = 1; k <= 4; ++k) {
+    const Eigen::Vector3d edge = (f[0] + f[size_t(k)]) / 2.0;
+    QVERIFY2(ColorNear(image, view.worldToImage(edge), SceneFrustumColor()), qPrintable(QString::number(k)));
+    const Eigen::Vector3d side = (f[size_t(k)] + f[size_t(k % 4 + 1)]) / 2.0;
+    QVERIFY2(ColorNear(image, view.worldToImage(side), SceneFrustumColor()), qPrintable(QString::number(k)));
+  }
+  // The trajectory between its views.
+  int on_trajectory = 0;
+  for (size_t i = 0; i + 1 < scene.trajectory.size(); ++i) {
+    const Eigen::Vector3d mid = (scene.trajectory[i] + scene.trajectory[i + 1]) / 2.0;
+    on_trajectory += ColorNear(image, view.worldToImage(mid), SceneTrajectoryColor());
+  }
+  QVERIFY2(on_trajectory * 2 >= int(scene.trajectory.size()) - 1, qPrintable(QString::number(on_trajectory)));
+  // Each plane's colour, and its board's dark squares.
+  for (const SceneBoard& board : scene.boards) {
+    QVERIFY2(CountColor(image, ScenePlaneColor(board.plane_id)) > 200,
+             qPrintable(QString::number(board.plane_id)));
+  }
+  // The boards' dark squares where they project (a plane in front may hide some).
+  int squares = 0, seen = 0;
+  for (const SceneBoard& board : scene.boards) {
+    for (const auto& square : board.dark) {
+      const Eigen::Vector3d centre = (square[0] + square[1] + square[2] + square[3]) / 4.0;
+      const QPointF at = view.worldToImage(centre);
+      ++squares;
+      seen += ColorNear(image, at, SceneDarkSquareColor(), 1);
+    }
+  }
+  QVERIFY2(seen * 2 > squares, qPrintable(QString("%1 of %2").arg(seen).arg(squares)));
+  // Gravity: the arrow from the camera, pointing down the screen (the view's up is up).
+  QVERIFY(scene.gravity);
+  const Eigen::Vector3d mid = f[0] + 0.5 * scene.frustum_depth * *scene.gravity;
+  QVERIFY(ColorNear(image, view.worldToImage(mid), SceneGravityColor()));
+  const Eigen::Vector3d tip = f[0] + scene.frustum_depth * *scene.gravity;
+  QVERIFY(view.worldToImage(tip).y() > view.worldToImage(f[0]).y() + 10);
+
+  view.clear();
+  QVERIFY(!view.scene());
+  QCOMPARE(CountColor(view.grab3d(), SceneFrustumColor()), 0);
+}
+
+}  // namespace autocal
+
+int main(int argc, char** argv) {
+  autocal::SceneView::SetDefaultSurfaceFormat();  // Before the application, as VTK needs.
+  QApplication app(argc, argv);
+  autocal::SceneViewTest test;
+  return QTest::qExec(&test, argc, argv);
+}
+
+#include "scene_view_test.moc"
