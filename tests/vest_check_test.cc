@@ -1,9 +1,10 @@
 // The vest check on real pipeline output: short simulated 320x240 walks through boxes 1-10
-// (the threaded runtime, as the procedure runs it), each frame's snapshot handed to the
-// check. A walk whose lens is the pre-mission one passes; one whose lens is 3% shorter in
-// focal length than the pre-mission calibration says fails on fx and fy; a camera at rest
-// is inconclusive and asks for motion.
+// on the threaded runtime, run as the procedure runs them (devices/vest_check_run.h). A walk
+// whose lens is the pre-mission one passes; one whose lens is 3% shorter in focal length
+// than the pre-mission calibration says fails on fx and fy; a camera at rest is
+// inconclusive and asks for motion.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -11,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-#include "devices/offline_runner.h"
+#include "devices/vest_check_run.h"
 #include "devices/sim/simulator.h"
 #include "pipeline/error.h"
 #include "pipeline/vest_check.h"
@@ -26,22 +27,21 @@ struct CheckRun {
   bool complete = false;
 };
 
-// `premission`: the calibration the vest was sent out with; the simulated lens is the truth.
-CheckRun RunCheck(const std::string& spec, const std::optional<CameraIntrinsics>& premission) {
-  const std::unique_ptr<Sequence> sequence = MakeSimulatedSequence(ParseScenarioSpec(spec));
-  RunSettings settings;
-  settings.prior = premission ? *premission : *sequence->session().premission_calibration;
-  VestCheck check(*settings.prior);
+// `premission`: the calibration the vest was sent out with (none: the simulator's lens,
+// the truth). Runs as the vest check dialog does.
+CheckRun RunCheck(const std::string& spec, const std::optional<CameraIntrinsics>& premission,
+                  const VestCheckOptions& options = {}) {
   CheckRun run;
-  RunSequence(*sequence, settings, [&](const RunProgress& progress) {
-    check.Add(*progress.snapshot);
+  VestCheckHooks hooks;
+  hooks.checked = [&](const VestCheck& check) {
     if (run.guidance.empty() || run.guidance.back() != check.Guidance()) {
       run.guidance.push_back(check.Guidance());
     }
     run.progress.push_back(check.Progress());
-  });
-  run.result = check.Result();
-  run.complete = check.Complete();
+    run.complete = check.Complete();
+  };
+  const std::atomic<bool> stop{false};
+  run.result = RunVestCheck("sim:" + spec, "", premission, options, stop, hooks);
   return run;
 }
 
@@ -113,6 +113,16 @@ TEST(VestCheck, LensThreePercentShorterFailsOnFocalLength) {
   EXPECT_TRUE(std::find(run.guidance.begin(), run.guidance.end(),
                         "Keep walking: the calibration has moved, confirming") !=
               run.guidance.end());
+}
+
+TEST(VestCheck, WalkEndsWhenItsTimeIsUp) {
+  VestCheckOptions options;
+  options.duration_s = 1.0;
+  const CheckRun run = RunCheck(kWalk, std::nullopt, options);
+  // The frame that reached 1 s ends it; the few frames queued behind it are still judged.
+  EXPECT_GE(run.result.seconds, 1.0);
+  EXPECT_LT(run.result.seconds, 1.5);
+  EXPECT_EQ(run.result.verdict, VestVerdict::kInconclusive) << "too short for an update";
 }
 
 TEST(VestCheck, CameraAtRestIsInconclusiveAndAsksToWalk) {

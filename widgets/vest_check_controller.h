@@ -1,9 +1,8 @@
-// Runs a vest check (pipeline/vest_check.h) on a source: opens it (devices/source.h's
-// OpenSource: "camera:0" with "usb" for the vest, "sim:office" for the simulated one, or a
-// recording), feeds its frames and accelerometer samples to a runtime of its own
-// (devices/runtime.h) on a worker thread, hands every snapshot to the check, and reports to
-// the GUI thread by signals: progress while the walk lasts, the result when the walk's time
-// is up or the source ends. A non-widget QObject so the dialog only shows what it says.
+// Runs a vest check (devices/vest_check_run.h: its own runtime on the source, "camera:0"
+// with "usb" for the vest, "sim:office" for the simulated one, or a recording) on a worker
+// thread, and reports to the GUI thread by signals: progress while the walk lasts, the
+// result when the walk's time is up or the source ends. A non-widget QObject, so the dialog
+// only shows what it says.
 #pragma once
 
 #include <atomic>
@@ -18,13 +17,12 @@
 #include <QObject>
 #include <QString>
 #include <QTimer>
+#include <opencv2/core.hpp>
 
 #include "pipeline/camera_model.h"
 #include "pipeline/vest_check.h"
 
 namespace autocal {
-
-class FrameSource;
 
 // What the walk page shows, taken together under one lock.
 struct VestCheckProgress {
@@ -33,7 +31,7 @@ struct VestCheckProgress {
   double elapsed_s = 0.0;
   double duration_s = 0.0;
   std::vector<VestNeedStatus> coverage;
-  QImage frame;  // The newest camera frame.
+  QImage frame;  // The newest camera frame (null before the first).
 };
 
 class VestCheckController : public QObject {
@@ -56,8 +54,8 @@ class VestCheckController : public QObject {
 
   VestCheckProgress progress() const;
   bool running() const { return worker_.joinable() && !done_; }
-  QString sourceDescription() const { return description_; }
-  QString deviceIds() const { return devices_; }
+  QString sourceDescription() const;
+  QString deviceIds() const;
   const VestCheckOptions& options() const { return options_; }
 
  signals:
@@ -74,18 +72,19 @@ class VestCheckController : public QObject {
   const QString input_, accel_;
   const std::optional<CameraIntrinsics> premission_;
   const VestCheckOptions options_;
-  QString description_, devices_;
 
-  std::unique_ptr<FrameSource> source_;
   std::thread worker_;
   std::atomic<bool> stop_{false}, done_{false}, cancelled_{false};
   QTimer poll_;  // Coalesces the worker's frames into ten updates a second.
 
-  mutable std::mutex mutex_;  // Guards what follows.
-  std::unique_ptr<VestCheck> check_;
-  QImage frame_;
+  mutable std::mutex mutex_;  // Guards what follows, written by the worker.
+  QString description_, devices_;
+  bool connected_ = false;
+  VestCheckProgress progress_;  // Its frame left empty: converted from frame_ on demand.
+  cv::Mat frame_;
   std::string error_;
-  bool announced_ = false;  // connected() was emitted.
+  std::optional<VestCheckResult> result_;
+  bool announced_ = false;  // connected() was emitted (GUI thread).
 };
 
 }  // namespace autocal

@@ -225,6 +225,7 @@ void VestCheckDialog::startCheck() {
   options.tolerance.focal_percent = focal_tol_->value();
   options.tolerance.principal_px = principal_tol_->value();
   options.tolerance.distortion_px = distortion_tol_->value();
+  options_ = options;
   controller_ = std::make_unique<VestCheckController>(input_->text(), accel_->text(),
                                                       premission, options);
   connect(controller_.get(), &VestCheckController::connected, this,
@@ -323,16 +324,20 @@ void VestCheckDialog::BackToConnect() {
   pages_->setCurrentIndex(int(Page::kConnect));
 }
 
-bool VestCheckDialog::saveReport(const QString& path, bool quiet) {
-  if (!result_) return false;
+VestReport VestCheckDialog::report() const {
   VestReport report;
   report.when = QDateTime::currentDateTime();
   report.source = source_description_;
   report.devices = device_ids_;
-  report.options = controller_ ? controller_->options() : VestCheckOptions{};
-  report.result = *result_;
+  report.options = options_;
+  if (result_) report.result = *result_;
+  return report;
+}
+
+bool VestCheckDialog::saveReport(const QString& path, bool quiet) {
+  if (!result_) return false;
   QString error;
-  if (WriteVestReportPdf(report, path, &error)) return true;
+  if (WriteVestReportPdf(report(), path, &error)) return true;
   if (!quiet) QMessageBox::warning(this, tr("Save Report"), error);
   return false;
 }

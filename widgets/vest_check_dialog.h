@@ -24,6 +24,7 @@
 #include <QString>
 
 #include "pipeline/vest_check.h"
+#include "widgets/vest_report.h"
 
 class QCheckBox;
 class QDoubleSpinBox;
@@ -51,6 +52,8 @@ class VestCheckDialog : public QDialog {
   Page page() const;
   // The newest verdict (none before a walk ends).
   const std::optional<VestCheckResult>& result() const { return result_; }
+  // The report of the newest verdict, dated now.
+  VestReport report() const;
 
   // Fields of the connect page, for tests and the main window.
   QLineEdit* inputEdit() const { return input_; }
@@ -101,6 +104,7 @@ class VestCheckDialog : public QDialog {
 
   std::unique_ptr<VestCheckController> controller_;
   std::optional<VestCheckResult> result_;
+  VestCheckOptions options_;  // Of the newest walk.
   QString source_description_, device_ids_;
 };
 

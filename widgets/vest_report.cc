@@ -75,7 +75,7 @@ QString VestReportHtml(const VestReport& report) {
   const auto info = [&](const QString& name, const QString& value) {
     html += QStringLiteral("<tr><td><b>%1</b></td><td>%2</td></tr>").arg(name, value);
   };
-  info(QStringLiteral("Date"), report.when.toString(Qt::ISODate));
+  info(QStringLiteral("Date"), report.when.toString(QStringLiteral("yyyy-MM-dd HH:mm:ss t")));
   info(QStringLiteral("Source"), report.source.toHtmlEscaped());
   info(QStringLiteral("Devices"), report.devices.toHtmlEscaped());
   info(QStringLiteral("Walk"), QStringLiteral("%1 s, %2 frames (%3 s asked)")
@@ -138,7 +138,9 @@ QString VestReportHtml(const VestReport& report) {
   for (const VestNeedStatus& s : r.coverage) {
     html += QStringLiteral("<tr><td>%1</td><td>%2</td><td>%3</td></tr>")
                 .arg(Escaped(s.name), Escaped(s.measured),
-                     s.done ? QStringLiteral("done") : QStringLiteral("missing"));
+                     s.done       ? QStringLiteral("done")
+                     : s.required ? QStringLiteral("missing")
+                                  : QStringLiteral("not covered (helps, not needed)"));
   }
   html += QStringLiteral("</table>");
 

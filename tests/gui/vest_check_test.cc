@@ -10,7 +10,9 @@
 #include <QListWidget>
 #include <QSignalSpy>
 #include <QTableWidget>
+#include <QPainter>
 #include <QTemporaryDir>
+#include <QTextDocument>
 #include <QtTest>
 
 #include "pipeline/vest_check.h"
@@ -92,6 +94,16 @@ class VestCheckTest : public QObject {
     if (const QString shots = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR"); !shots.isEmpty()) {
       QFile::remove(QDir(shots).filePath(QStringLiteral("vest_check_report.pdf")));
       QVERIFY(QFile::copy(path, QDir(shots).filePath(QStringLiteral("vest_check_report.pdf"))));
+      // The page as printed, for a person to look at without a PDF viewer.
+      QTextDocument document;
+      document.setHtml(VestReportHtml(dialog.report()));
+      document.setTextWidth(800);
+      QImage page(800, int(document.size().height()), QImage::Format_RGB32);
+      page.fill(Qt::white);
+      QPainter painter(&page);
+      document.drawContents(&painter);
+      painter.end();
+      QVERIFY(page.save(QDir(shots).filePath(QStringLiteral("vest_check_report.png"))));
     }
     // A report cannot be written where there is no folder.
     QVERIFY(!dialog.saveReport(dir.filePath(QStringLiteral("missing/report.pdf")), true));
@@ -99,18 +111,20 @@ class VestCheckTest : public QObject {
 
   void ReportHoldsTheVerdictReasonsAndCoverage() {
     VestReport report;
-    report.when = QDateTime(QDate(2026, 11, 21), QTime(9, 30));
+    report.when = QDateTime(QDate(2026, 11, 21), QTime(9, 30), Qt::UTC);
     report.source = QStringLiteral("simulator");
     report.result.verdict = VestVerdict::kFail;
     report.result.reasons = {"fx is 3.62% below the pre-mission value (1.5% allowed)"};
     report.result.criteria = {{"fx", "%", 214.85, 207.06, -3.62, 1.5, false, "fx is 3.62% below"}};
-    report.result.coverage = {{VestNeed::kStill, "Holding still", "0.0 of 2.0 s", 0.0, false}};
+    report.result.coverage = {{VestNeed::kRotation, "Turning", "0.5 of 2.0 s", 0.25, false, true},
+                              {VestNeed::kStill, "Holding still", "0.0 of 2.0 s", 0.0, false, false}};
     const QString html = VestReportHtml(report);
     QVERIFY(html.contains(QStringLiteral("Verdict: FAIL")));
     QVERIFY(html.contains(QStringLiteral("fx is 3.62% below the pre-mission value")));
     QVERIFY(html.contains(QStringLiteral("-3.62 %")));
-    QVERIFY(html.contains(QStringLiteral("Holding still</td><td>0.0 of 2.0 s</td><td>missing")));
-    QVERIFY(html.contains(QStringLiteral("2026-11-21T09:30:00")));
+    QVERIFY(html.contains(QStringLiteral("Turning</td><td>0.5 of 2.0 s</td><td>missing")));
+    QVERIFY(html.contains(QStringLiteral("Holding still</td><td>0.0 of 2.0 s</td><td>not covered")));
+    QVERIFY(html.contains(QStringLiteral("2026-11-21 09:30:00 UTC")));
     QVERIFY(html.contains(QStringLiteral("autocal ")));
   }
 };
