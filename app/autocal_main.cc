@@ -32,6 +32,9 @@ const std::map<QString, Subcommand>& Subcommands() {
       {"devices", {autocal::cli::Devices, "list cameras and look for a USB accelerometer"}},
       {"bench",
        {autocal::cli::Bench, "time the whole pipeline on a simulated recording (fps, latency)"}},
+      {"check",
+       {autocal::cli::Check, "the vest check: walk, then pass / fail against the pre-mission "
+                             "calibration"}},
   };
   return kSubcommands;
 }

@@ -19,5 +19,7 @@ int Record(const QStringList& arguments);
 int Devices(const QStringList& arguments);
 // bench_command.cc
 int Bench(const QStringList& arguments);
+// check_command.cc
+int Check(const QStringList& arguments);
 
 }  // namespace autocal::cli

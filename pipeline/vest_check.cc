@@ -252,8 +252,12 @@ VestCheckResult VestCheck::Result() const {
   for (const AttemptRecord& attempt : attempts_) {
     ++result.verdicts[attempt.verdict];
     if (attempt.verdict == Verdict::kAlarm) {
+      const std::string prefix = "alarm: ";
+      const std::string what = attempt.reason.rfind(prefix, 0) == 0
+                                   ? attempt.reason.substr(prefix.size())
+                                   : attempt.reason;
       result.alarms.push_back(Fixed(1e-9 * double(attempt.t_ns - first_ns_.value_or(0)), 1) +
-                              " s: " + attempt.reason);
+                              " s: " + what);
     }
   }
   result.accepted_in_regime = AcceptedInRegime();

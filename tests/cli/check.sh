@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# `autocal check`, the vest check headless: a short simulated walk with the vest's own lens
+# passes (exit 0); a camera at rest is inconclusive (exit 4) and says what was missing; bad
+# usage exits 2.
+set -euo pipefail
+autocal="$1"
+dir="$(mktemp -d)"
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+code=0
+"$autocal" check --input "sim:office,resolution=320x240,seconds=8" >"$dir/out" 2>"$dir/err" || code=$?
+cat "$dir/out"
+[ "$code" = 0 ] || fail "a walk with the pre-mission lens passes (exit $code)"
+[ "$(head -1 "$dir/out")" = PASS ] || fail "the verdict comes first"
+grep -q '^fx .* pass$' "$dir/out" || fail "the fx row"
+grep -q 'Turn slowly left and right' "$dir/err" || fail "guidance while walking"
+
+code=0
+"$autocal" check --input "sim:static,resolution=320x240,seconds=3" >"$dir/out" 2>"$dir/err" || code=$?
+cat "$dir/out"
+[ "$code" = 4 ] || fail "a camera at rest is inconclusive (exit $code)"
+[ "$(head -1 "$dir/out")" = INCONCLUSIVE ] || fail "the inconclusive verdict"
+grep -q 'missing: Turning' "$dir/out" || fail "what was missing"
+
+code=0
+"$autocal" check --input sim:office --seconds -1 >/dev/null 2>&1 || code=$?
+[ "$code" = 2 ] || fail "a negative walk is bad usage (exit $code)"
+code=0
+"$autocal" check --input sim:office --prior "$dir/none.yaml" >/dev/null 2>&1 || code=$?
+[ "$code" = 1 ] || fail "a missing calibration file is a failure to run (exit $code)"
+echo ok
