@@ -5,6 +5,7 @@
 #include <limits>
 #include <optional>
 
+#include <QAction>
 #include <QCheckBox>
 #include <QCursor>
 #include <QFileDialog>
@@ -64,24 +65,36 @@ bool Estimated(const AttemptRecord& record, int channel) {
              record.free_parameters.end();
 }
 
+// What a legend entry shows before its name.
+enum class Sample { kDot, kSquare, kRing, kLine, kDashed, kDashDot };
+
 // A legend entry: a sample of the marker or line, then its name.
-QWidget* LegendEntry(const QString& text, const QColor& color, bool line, bool dashed = false,
-                     bool square = false) {
+QWidget* LegendEntry(const QString& text, const QColor& color, Sample shown) {
   QPixmap icon(18, 12);
   icon.fill(Qt::transparent);
   QPainter painter(&icon);
   painter.setRenderHint(QPainter::Antialiasing);
-  if (line) {
-    painter.setPen(QPen(color, 2.0, dashed ? Qt::DashLine : Qt::SolidLine));
-    painter.drawLine(0, 6, 18, 6);
-  } else {
-    painter.setPen(Qt::NoPen);
-    painter.setBrush(color);
-    if (square) {
+  switch (shown) {
+    case Sample::kLine:
+    case Sample::kDashed:
+    case Sample::kDashDot:
+      painter.setPen(QPen(color, 2.0,
+                          shown == Sample::kLine     ? Qt::SolidLine
+                          : shown == Sample::kDashed ? Qt::DashLine
+                                                     : Qt::DashDotLine));
+      painter.drawLine(0, 6, 18, 6);
+      break;
+    case Sample::kSquare:
+      painter.setPen(Qt::NoPen);
+      painter.setBrush(color);
       painter.drawRect(5, 2, kMarkerSize, kMarkerSize);
-    } else {
+      break;
+    case Sample::kDot:
+    case Sample::kRing:
+      painter.setPen(shown == Sample::kRing ? QPen(color, 2.0) : QPen(Qt::NoPen));
+      painter.setBrush(shown == Sample::kRing ? QBrush(Qt::NoBrush) : QBrush(color));
       painter.drawEllipse(5, 2, kMarkerSize, kMarkerSize);
-    }
+      break;
   }
   painter.end();
   auto* entry = new QWidget;
@@ -131,6 +144,7 @@ QColor MarkerColor(MarkerClass marker) {
 QColor TrendColor() { return {31, 119, 180}; }
 QColor TruthColor() { return {120, 120, 120}; }
 QColor AlarmColor() { return {148, 103, 189}; }
+QColor CompareColor() { return {140, 86, 75}; }
 
 CalibrationChart::CalibrationChart(int channel, QWidget* parent)
     : QChartView(parent), channel_(channel) {
@@ -161,9 +175,19 @@ CalibrationChart::CalibrationChart(int channel, QWidget* parent)
   truth_ = new QLineSeries;
   truth_->setPen(QPen(TruthColor(), 2.0, Qt::DashLine));
   add(truth_);
+  compare_trend_ = new QLineSeries;
+  compare_trend_->setPen(QPen(CompareColor(), 2.0, Qt::DashDotLine));
+  add(compare_trend_);
   trend_ = new QLineSeries;
   trend_->setPen(QPen(TrendColor(), 2.0));
   add(trend_);
+  compare_markers_ = new QScatterSeries;
+  compare_markers_->setMarkerShape(QScatterSeries::MarkerShapeCircle);
+  compare_markers_->setMarkerSize(kMarkerSize + 2);
+  compare_markers_->setColor(Qt::transparent);
+  compare_markers_->setBorderColor(CompareColor());
+  compare_markers_->setPen(QPen(CompareColor(), 2.0));
+  add(compare_markers_);
   for (int m = 0; m < kNumMarkerClasses; ++m) {
     const auto marker = static_cast<MarkerClass>(m);
     auto* series = new QScatterSeries;
@@ -288,15 +312,30 @@ CalibrationPlots::CalibrationPlots(QWidget* parent) : QWidget(parent) {
   legend->setSpacing(0);
   legend->addWidget(title_);
   legend->addStretch(1);
-  legend->addWidget(LegendEntry(tr("accepted"), MarkerColor(MarkerClass::kAccepted), false));
+  legend->addWidget(LegendEntry(tr("accepted"), MarkerColor(MarkerClass::kAccepted), Sample::kDot));
   legend->addWidget(
-      LegendEntry(tr("rejected"), MarkerColor(MarkerClass::kRejected), false, false, true));
+      LegendEntry(tr("rejected"), MarkerColor(MarkerClass::kRejected), Sample::kSquare));
   legend->addWidget(
-      LegendEntry(tr("alarm / new regime"), MarkerColor(MarkerClass::kJump), false, false, true));
-  legend->addWidget(LegendEntry(tr("filtered (trend)"), TrendColor(), true));
-  legend->addWidget(LegendEntry(tr("ground truth"), TruthColor(), true, true));
-  legend->addWidget(LegendEntry(tr("alarm"), AlarmColor(), true, true));
-  grid->addLayout(legend, 0, 0, 1, 2);
+      LegendEntry(tr("alarm / new regime"), MarkerColor(MarkerClass::kJump), Sample::kSquare));
+  legend->addWidget(LegendEntry(tr("filtered (trend)"), TrendColor(), Sample::kLine));
+  legend->addWidget(LegendEntry(tr("ground truth"), TruthColor(), Sample::kDashed));
+  legend->addWidget(LegendEntry(tr("alarm"), AlarmColor(), Sample::kDashed));
+  auto* header = new QVBoxLayout;
+  header->setSpacing(0);
+  header->addLayout(legend);
+  grid->addLayout(header, 0, 0, 1, 2);
+  // The compared run, on a line of its own under the first: both runs named.
+  auto* compare_row = new QWidget;
+  auto* compare_legend = new QHBoxLayout(compare_row);
+  compare_legend->setContentsMargins(0, 0, 0, 0);
+  compare_legend->setSpacing(0);
+  compare_legend_ = new QLabel;
+  compare_legend->addWidget(compare_legend_);
+  compare_legend->addStretch(1);
+  compare_legend->addWidget(LegendEntry(tr("compared: accepted"), CompareColor(), Sample::kRing));
+  compare_legend->addWidget(LegendEntry(tr("compared: filtered"), CompareColor(), Sample::kDashDot));
+  compare_row->hide();
+  header->addWidget(compare_row);
 
   for (int channel = 0; channel < kNumCalibrationChannels; ++channel) {
     auto* chart = new CalibrationChart(channel);
@@ -332,6 +371,29 @@ CalibrationPlots::CalibrationPlots(QWidget* parent) : QWidget(parent) {
   auto* export_button = new QPushButton(tr("Export\u2026"));
   export_button->setToolTip(tr("Save the charts as PNG or SVG"));
   connect(export_button, &QPushButton::clicked, this, &CalibrationPlots::exportDialog);
+  compare_action_ = new QAction(tr("Compare With History\u2026"), this);
+  compare_action_->setToolTip(
+      tr("Overlay another run's history of the same recording (other settings)"));
+  connect(compare_action_, &QAction::triggered, this, [this] {
+    const QString path = QFileDialog::getOpenFileName(
+        this, tr("Compare With History"), {}, tr("autocal histories (*.sqlite *.db);;All files (*)"));
+    if (!path.isEmpty()) openCompare(path);
+  });
+  clear_compare_action_ = new QAction(tr("Clear Comparison"), this);
+  clear_compare_action_->setEnabled(false);
+  connect(clear_compare_action_, &QAction::triggered, this, [this] { setCompareSeries(nullptr); });
+  connect(&compare_opener_, &HistoryOpener::opened, this,
+          [this](const QString&, std::shared_ptr<const CalibrationSeries> series) {
+            setCompareSeries(std::move(series));
+          });
+  connect(&compare_opener_, &HistoryOpener::updated, this,
+          [this](const QString&, std::shared_ptr<const CalibrationSeries> series) {
+            if (compare_) setCompareSeries(std::move(series));
+          });
+  connect(&compare_opener_, &HistoryOpener::failed, this, &CalibrationPlots::compareFailed);
+  auto* compare_button = new QPushButton(tr("Compare\u2026"));
+  compare_button->setToolTip(compare_action_->toolTip());
+  connect(compare_button, &QPushButton::clicked, compare_action_, &QAction::trigger);
   auto* hint = new QLabel(tr("Wheel: zoom \u00b7 drag: pan \u00b7 click: go to time"));
   hint->setEnabled(false);
 
@@ -340,6 +402,7 @@ CalibrationPlots::CalibrationPlots(QWidget* parent) : QWidget(parent) {
   controls->addWidget(hint);
   controls->addStretch(1);
   controls->addWidget(show_rejected_);
+  controls->addWidget(compare_button);
   controls->addWidget(fit);
   controls->addWidget(export_button);
 
@@ -372,6 +435,16 @@ void CalibrationPlots::setSeries(std::shared_ptr<const CalibrationSeries> series
   rebuild(same_file && !whole_in_view);
 }
 
+void CalibrationPlots::setCompareSeries(std::shared_ptr<const CalibrationSeries> compare) {
+  const bool whole_in_view = std::pair(t0_, t1_) == fullRange();
+  compare_ = std::move(compare);
+  clear_compare_action_->setEnabled(compare_ != nullptr);
+  compare_legend_->parentWidget()->setVisible(compare_ != nullptr);
+  rebuild(!whole_in_view);
+}
+
+void CalibrationPlots::openCompare(const QString& path) { compare_opener_.open(path); }
+
 void CalibrationPlots::setTimeOrigin(int64_t origin_ns) {
   origin_ns_ = origin_ns;
   origin_set_ = true;
@@ -392,7 +465,11 @@ double CalibrationPlots::toSeconds(int64_t t_ns) const {
 void CalibrationPlots::rebuild(bool keep_view) {
   const std::vector<AttemptRecord> none;
   const std::vector<AttemptRecord>& attempts = series_ ? series_->stored.attempts : none;
-  if (!origin_set_) origin_ns_ = attempts.empty() ? 0 : attempts.front().t_ns;
+  if (!origin_set_) {
+    origin_ns_ = !attempts.empty()                                    ? attempts.front().t_ns
+                 : compare_ && !compare_->stored.attempts.empty() ? compare_->stored.attempts.front().t_ns
+                                                                  : 0;
+  }
 
   for (auto& channel : points_) {
     for (Points& p : channel) p = {};
@@ -408,6 +485,28 @@ void CalibrationPlots::rebuild(bool keep_view) {
       p.t.push_back(toSeconds(record.t_ns));
       p.v.push_back(value);
       p.id.push_back(record.id);
+    }
+  }
+  for (int channel = 0; channel < kNumCalibrationChannels; ++channel) {
+    compare_points_[channel] = {};
+    compare_trend_[channel] = {};
+    if (!compare_) continue;
+    for (const AttemptRecord& record : compare_->stored.attempts) {
+      const double value = ChannelValue(record, channel);
+      // What the compared run took (accepted, or off the trend into a new regime).
+      const std::optional<MarkerClass> marker = MarkerOf(record.verdict);
+      if (!marker || *marker == MarkerClass::kRejected || !std::isfinite(value) ||
+          !Estimated(record, channel)) {
+        continue;
+      }
+      compare_points_[channel].t.push_back(toSeconds(record.t_ns));
+      compare_points_[channel].v.push_back(value);
+      compare_points_[channel].id.push_back(record.id);
+    }
+    if (channel == kRmsChannel) continue;
+    for (const TrendSample& sample : compare_->trend) {
+      compare_trend_[channel].t.push_back(toSeconds(sample.t_ns));
+      compare_trend_[channel].v.push_back(sample.value[channel]);
     }
   }
   for (int channel = 0; channel < kNumIntrinsics; ++channel) {
@@ -430,20 +529,25 @@ void CalibrationPlots::rebuild(bool keep_view) {
   }
   for (CalibrationChart* chart : charts_) chart->setAlarmCount(static_cast<int>(alarm_t_.size()));
 
-  if (series_) {
-    const StoredHistory& stored = series_->stored;
+  // "name: attempts N, accepted ..." for a history.
+  const auto summary = [this](const CalibrationSeries& series) {
+    const StoredHistory& stored = series.stored;
     auto count = [&](Verdict verdict) {
       return std::count_if(stored.attempts.begin(), stored.attempts.end(),
                            [verdict](const AttemptRecord& r) { return r.verdict == verdict; });
     };
-    title_->setText(
-        tr("<b>%1</b>: attempts %2, accepted %3, rejected %4, alarms %5; RMS limit %6 px")
-            .arg(QFileInfo(QString::fromStdString(series_->path)).fileName().toHtmlEscaped())
-            .arg(stored.attempts.size())
-            .arg(count(Verdict::kAccepted))
-            .arg(count(Verdict::kRejected))
-            .arg(stored.alarms.size())
-            .arg(stored.options.max_rms_px, 0, 'f', 2));
+    return tr("<b>%1</b>: attempts %2, accepted %3, rejected %4, alarms %5; RMS limit %6 px")
+        .arg(QFileInfo(QString::fromStdString(series.path)).fileName().toHtmlEscaped())
+        .arg(stored.attempts.size())
+        .arg(count(Verdict::kAccepted))
+        .arg(count(Verdict::kRejected))
+        .arg(stored.alarms.size())
+        .arg(stored.options.max_rms_px, 0, 'f', 2);
+  };
+  if (series_) title_->setText(summary(*series_));
+  if (compare_) {
+    compare_legend_->setText(tr("<span style='color:%1'>compared with</span> %2")
+                                 .arg(CompareColor().name(), summary(*compare_)));
   }
   if (keep_view) {
     scheduleRedraw();
@@ -465,6 +569,8 @@ std::pair<double, double> CalibrationPlots::fullRange() const {
   }
   extend(trend_[0].t);
   extend(truth_lines_[0].t);
+  for (const Points& p : compare_points_) extend(p.t);
+  extend(compare_trend_[0].t);
   extend(alarm_t_);
   if (!(lo <= hi)) return {0.0, 1.0};
   // Room for the markers at the ends, which would be cut in half at the edge.
@@ -613,6 +719,14 @@ void CalibrationPlots::redraw() {
     ExtendRange(truth, t0_, t1_, &lo, &hi);
     chart.trend()->replace(trend);
     chart.truth()->replace(truth);
+    const QVector<QPointF> compare_points =
+        decimate(compare_points_[channel].t, compare_points_[channel].v);
+    const QVector<QPointF> compare_trend =
+        decimate(compare_trend_[channel].t, compare_trend_[channel].v);
+    ExtendRange(compare_points, t0_, t1_, &lo, &hi);
+    ExtendRange(compare_trend, t0_, t1_, &lo, &hi);
+    chart.compareMarkers()->replace(compare_points);
+    chart.compareTrend()->replace(compare_trend);
 
     if (!(lo <= hi)) {
       lo = -1.0;

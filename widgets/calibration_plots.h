@@ -20,6 +20,7 @@
 #include "pipeline/camera_model.h"
 #include "widgets/calibration_series.h"
 
+class QAction;
 class QCheckBox;
 class QLabel;
 
@@ -45,6 +46,8 @@ QColor MarkerColor(MarkerClass marker);
 QColor TrendColor();
 QColor TruthColor();
 QColor AlarmColor();
+// The compared run: its trend dash-dotted, the attempts it took as hollow circles.
+QColor CompareColor();
 
 // One channel's chart. Mouse input is turned into requests in time; CalibrationPlots
 // carries them out for every chart at once.
@@ -59,6 +62,9 @@ class CalibrationChart : public QChartView {
   QLineSeries* trend() const { return trend_; }
   QLineSeries* truth() const { return truth_; }
   QLineSeries* cursor() const { return cursor_; }
+  // The compared run's trend and the attempts it took (accepted, alarm, new regime).
+  QLineSeries* compareTrend() const { return compare_trend_; }
+  QScatterSeries* compareMarkers() const { return compare_markers_; }
   QValueAxis* timeAxis() const { return time_axis_; }
   QValueAxis* valueAxis() const { return value_axis_; }
   // Alarm lines, one series each.
@@ -95,6 +101,8 @@ class CalibrationChart : public QChartView {
   QLineSeries* trend_;
   QLineSeries* truth_;
   QLineSeries* cursor_;
+  QLineSeries* compare_trend_;
+  QScatterSeries* compare_markers_;
   std::vector<QLineSeries*> alarms_;
   QPoint press_pos_, last_pos_;  // Where the left button went down, and was last seen.
   bool dragging_ = false;        // Moved far enough since the press to be a pan.
@@ -116,6 +124,19 @@ class CalibrationPlots : public QWidget {
   int64_t timeOrigin() const { return origin_ns_; }
   // The true intrinsics over time, drawn as a line; empty: none.
   void setGroundTruth(std::vector<std::pair<int64_t, CameraIntrinsics>> truth);
+
+  // Compare runs: a second history of the same recording (another run's settings), drawn
+  // over the first on the same time axis in a style of its own (CompareColor) and named in
+  // the legend beside the first. Null: no comparison.
+  void setCompareSeries(std::shared_ptr<const CalibrationSeries> compare);
+  const CalibrationSeries* compareSeries() const { return compare_.get(); }
+  // Reads a history file off the GUI thread and compares with it; a failure is reported
+  // by compareFailed and leaves the comparison as it was.
+  void openCompare(const QString& path);
+  // For the main window's File menu: "Compare With History…" (asks for a file, then
+  // openCompare) and "Clear Comparison".
+  QAction* compareAction() const { return compare_action_; }
+  QAction* clearCompareAction() const { return clear_compare_action_; }
 
   QSize sizeHint() const override;
   CalibrationChart* chart(int channel) const { return charts_[channel]; }
@@ -145,6 +166,8 @@ class CalibrationPlots : public QWidget {
  signals:
   void seekRequested(double seconds);
   void visibleRangeChanged(double t0_s, double t1_s);
+  // `message` names the file.
+  void compareFailed(const QString& path, const QString& message);
 
  private:
   // Per channel and marker class: the attempts' times (s since the origin) and values, and
@@ -176,6 +199,13 @@ class CalibrationPlots : public QWidget {
   std::array<std::array<Points, kNumMarkerClasses>, kNumCalibrationChannels> points_;
   std::array<Line, kNumCalibrationChannels> trend_;
   std::array<Line, kNumCalibrationChannels> truth_lines_;
+  std::array<Points, kNumCalibrationChannels> compare_points_;
+  std::array<Line, kNumCalibrationChannels> compare_trend_;
+  std::shared_ptr<const CalibrationSeries> compare_;
+  HistoryOpener compare_opener_;
+  QAction* compare_action_;
+  QAction* clear_compare_action_;
+  QLabel* compare_legend_;
   std::vector<double> alarm_t_;
   double t0_ = 0.0, t1_ = 1.0;
   double cursor_s_ = 0.0;
