@@ -104,6 +104,7 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   form->addRow(tr("Distortion within:"), distortion_tol_);
   connect_layout->addLayout(form);
   connect_error_ = new QLabel(connect_page);
+  connect_error_->setObjectName(QStringLiteral("connectError"));
   connect_error_->setWordWrap(true);
   connect_error_->setStyleSheet(QStringLiteral("color: #b00020;"));
   connect_layout->addWidget(connect_error_);
@@ -172,6 +173,7 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   summary_->setAlignment(Qt::AlignCenter);
   result_layout->addWidget(summary_);
   reasons_ = new QLabel(result_page);
+  reasons_->setObjectName(QStringLiteral("reasons"));
   reasons_->setWordWrap(true);
   reasons_->setTextInteractionFlags(Qt::TextSelectableByMouse);
   result_layout->addWidget(reasons_);
@@ -284,10 +286,12 @@ void VestCheckDialog::ShowResult(const VestCheckResult& result) {
                                                               : "#b26a00";
   verdict_->setText(QString::fromStdString(VestVerdictName(result.verdict)));
   verdict_->setStyleSheet(QStringLiteral("color: %1;").arg(QLatin1String(colour)));
-  summary_->setText(tr("%1 s walked on %2; %3 calibration updates of %4 accepted")
+  summary_->setText(QStringLiteral("<b>%1</b><br>").arg(VestVerdictAdvice(result.verdict)) +
+                    tr("%1 s walked on %2; %3 calibration updates of %4 accepted")
                         .arg(QString::number(result.seconds, 'f', 1), source_description_)
                         .arg(result.accepted_in_regime)
-                        .arg(result.attempts));
+                        .arg(result.attempts)
+                        .toHtmlEscaped());
   QStringList reasons;
   for (const std::string& reason : result.reasons) {
     reasons << QStringLiteral("• ") + QString::fromStdString(reason).toHtmlEscaped();

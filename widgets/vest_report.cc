@@ -66,6 +66,20 @@ std::vector<VestReportRow> VestReportRows(const VestCheckResult& result) {
   return rows;
 }
 
+QString VestVerdictAdvice(VestVerdict verdict) {
+  switch (verdict) {
+    case VestVerdict::kPass:
+      return QStringLiteral("The camera matches its pre-mission calibration.");
+    case VestVerdict::kFail:
+      return QStringLiteral("The camera no longer matches its pre-mission calibration: have "
+                            "the vest recalibrated (the measured calibration is below).");
+    case VestVerdict::kInconclusive:
+      return QStringLiteral("Not enough was seen to judge: check again, following the "
+                            "guidance on the screen.");
+  }
+  return {};
+}
+
 QString VestReportHtml(const VestReport& report) {
   const VestCheckResult& r = report.result;
   const VestCheckOptions& o = report.options;
@@ -87,6 +101,7 @@ QString VestReportHtml(const VestReport& report) {
 
   html += QStringLiteral("<h2 style=\"color: %1;\">Verdict: %2</h2>")
               .arg(VerdictColour(r.verdict), QString::fromStdString(VestVerdictName(r.verdict)));
+  html += QStringLiteral("<p><b>%1</b></p>").arg(VestVerdictAdvice(r.verdict).toHtmlEscaped());
   if (r.reasons.empty()) {
     html += QStringLiteral("<p>Every parameter is within its tolerance of the pre-mission "
                            "calibration.</p>");

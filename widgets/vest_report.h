@@ -28,6 +28,9 @@ struct VestReportRow {
 };
 std::vector<VestReportRow> VestReportRows(const VestCheckResult& result);
 
+// What the technician does next, one sentence per verdict.
+QString VestVerdictAdvice(VestVerdict verdict);
+
 QString VestReportHtml(const VestReport& report);
 
 // False, with `error` saying why, when the file cannot be written.

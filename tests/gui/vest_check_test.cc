@@ -15,6 +15,8 @@
 #include <QTextDocument>
 #include <QtTest>
 
+#include "devices/sim/simulator.h"
+#include "pipeline/calibration_io.h"
 #include "pipeline/vest_check.h"
 #include "widgets/vest_check_dialog.h"
 #include "widgets/vest_report.h"
@@ -109,6 +111,52 @@ class VestCheckTest : public QObject {
     QVERIFY(!dialog.saveReport(dir.filePath(QStringLiteral("missing/report.pdf")), true));
   }
 
+  // The vest's calibration file says a focal length 3% longer than the lens has.
+  void LensOffItsCalibrationFailsWithReasons() {
+    const QTemporaryDir dir;
+    CameraIntrinsics premission =
+        *MakeSimulatedSequence(ParseScenarioSpec(kVest.mid(4).toStdString()))
+             ->session()
+             .premission_calibration;
+    // A calibration of another image size is refused on the connect page.
+    const QString wrong_size = dir.filePath(QStringLiteral("wrong_size.yaml"));
+    WriteCalibration(wrong_size.toStdString(), CameraIntrinsics::FromFieldOfView(640, 480, 75),
+                     CalibrationFormat::kOpenCv);
+    premission.fx *= 1.03;
+    premission.fy *= 1.03;
+    const QString off = dir.filePath(QStringLiteral("vest.yaml"));
+    WriteCalibration(off.toStdString(), premission, CalibrationFormat::kOpenCv);
+
+    VestCheckDialog dialog(kVest);
+    dialog.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&dialog));
+    auto* error = dialog.findChild<QLabel*>(QStringLiteral("connectError"));
+    QVERIFY(error);
+    dialog.premissionEdit()->setText(wrong_size);
+    dialog.startCheck();
+    QTRY_COMPARE_WITH_TIMEOUT(dialog.page(), VestCheckDialog::Page::kConnect, 60000);
+    QVERIFY2(error->text().contains(QStringLiteral("is for 640x480 images")),
+             qPrintable(error->text()));
+    SaveScreenshot(dialog, QStringLiteral("vest_check_connect.png"));
+
+    QSignalSpy finished(&dialog, &VestCheckDialog::checkFinished);
+    dialog.premissionEdit()->setText(off);
+    dialog.startCheck();
+    QVERIFY(finished.wait(180000) || !finished.isEmpty());
+    QVERIFY(error->text().isEmpty());
+    QCOMPARE(dialog.result()->verdict, VestVerdict::kFail);
+    QCOMPARE(dialog.findChild<QLabel*>(QStringLiteral("verdict"))->text(), QStringLiteral("FAIL"));
+    auto* reasons = dialog.findChild<QLabel*>(QStringLiteral("reasons"));
+    QVERIFY(reasons);
+    QVERIFY2(reasons->text().contains(QStringLiteral("fx is")), qPrintable(reasons->text()));
+    auto* table = dialog.findChild<QTableWidget*>();
+    QCOMPARE(table->item(0, 0)->text(), QStringLiteral("fx"));
+    QCOMPARE(table->item(0, 5)->text(), QStringLiteral("FAIL"));
+    QCOMPARE(table->item(2, 0)->text(), QStringLiteral("cx"));
+    QCOMPARE(table->item(2, 5)->text(), QStringLiteral("pass"));
+    SaveScreenshot(dialog, QStringLiteral("vest_check_fail.png"));
+  }
+
   void ReportHoldsTheVerdictReasonsAndCoverage() {
     VestReport report;
     report.when = QDateTime(QDate(2026, 11, 21), QTime(9, 30), Qt::UTC);
@@ -120,6 +168,7 @@ class VestCheckTest : public QObject {
                               {VestNeed::kStill, "Holding still", "0.0 of 2.0 s", 0.0, false, false}};
     const QString html = VestReportHtml(report);
     QVERIFY(html.contains(QStringLiteral("Verdict: FAIL")));
+    QVERIFY(html.contains(QStringLiteral("have the vest recalibrated")));
     QVERIFY(html.contains(QStringLiteral("fx is 3.62% below the pre-mission value")));
     QVERIFY(html.contains(QStringLiteral("-3.62 %")));
     QVERIFY(html.contains(QStringLiteral("Turning</td><td>0.5 of 2.0 s</td><td>missing")));
