@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 
+#include <QAction>
 #include <QApplication>
 #include <QCommandLineOption>
 #include <QCommandLineParser>
@@ -32,6 +33,15 @@ struct Options {
       QStringLiteral("Open a calibration history (the SQLite file autocal writes) in the "
                      "Calibration and History docks."),
       QStringLiteral("file")};
+  QCommandLineOption overlays{
+      QStringLiteral("overlays"),
+      QStringLiteral("Overlay layers to show, comma-separated: lines, snakes, tracks, planes, "
+                     "boards, gravity; 'all' or 'none' (default: as last time)."),
+      QStringLiteral("layers")};
+  QCommandLineOption view{QStringLiteral("view"),
+                          QStringLiteral("The video as 'raw', 'rectified' or 'side-by-side' "
+                                         "(default: as last time)."),
+                          QStringLiteral("mode")};
 };
 
 Options Configure(QCommandLineParser* parser) {
@@ -44,6 +54,8 @@ Options Configure(QCommandLineParser* parser) {
   parser->addOption(options.screenshot);
   parser->addOption(options.quit_after);
   parser->addOption(options.history);
+  parser->addOption(options.overlays);
+  parser->addOption(options.view);
   parser->addPositionalArgument(
       QStringLiteral("source"),
       QStringLiteral("Recording folder, video file with an accelerometer CSV, or sim:SPEC "
@@ -110,6 +122,39 @@ int main(int argc, char** argv) {
   const bool unattended = quit_after_ms >= 0 || !screenshot.isEmpty();
 
   autocal::MainWindow window;
+  if (parser.isSet(options.overlays)) {
+    const QStringList wanted =
+        parser.value(options.overlays).toLower().split(QLatin1Char(','), Qt::SkipEmptyParts);
+    for (const QString& key : wanted) {
+      bool known = key == QLatin1String("all") || key == QLatin1String("none");
+      for (const autocal::OverlayLayer layer : autocal::kAllOverlayLayers) {
+        known = known || key == autocal::OverlayLayerKey(layer);
+      }
+      if (!known) {
+        std::fprintf(stderr, "autocal-workbench: unknown overlay layer '%s'\n",
+                     qUtf8Printable(key));
+        return 2;
+      }
+    }
+    for (const autocal::OverlayLayer layer : autocal::kAllOverlayLayers) {
+      window.overlayAction(layer)->setChecked(wanted.contains(QLatin1String("all")) ||
+                                              wanted.contains(autocal::OverlayLayerKey(layer)));
+    }
+  }
+  if (parser.isSet(options.view)) {
+    const QString mode = parser.value(options.view);
+    using Mode = autocal::VideoView::ViewMode;
+    const Mode chosen = mode == QLatin1String("rectified")      ? Mode::kRectified
+                        : mode == QLatin1String("side-by-side") ? Mode::kSideBySide
+                                                                : Mode::kRaw;
+    if (chosen == Mode::kRaw && mode != QLatin1String("raw")) {
+      std::fprintf(stderr,
+                   "autocal-workbench: --view wants raw, rectified or side-by-side, got '%s'\n",
+                   qUtf8Printable(mode));
+      return 2;
+    }
+    window.viewModeAction(chosen)->trigger();
+  }
   window.show();
 
   bool screenshot_failed = false;

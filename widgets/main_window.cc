@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <QAction>
+#include <QActionGroup>
 #include <QApplication>
 #include <QCloseEvent>
 #include <QComboBox>
@@ -30,6 +31,7 @@
 #include <QSlider>
 #include <QStatusBar>
 #include <QStyle>
+#include <QToolBar>
 #include <QToolButton>
 #include <QUrl>
 #include <QVBoxLayout>
@@ -41,6 +43,7 @@
 #include "widgets/calibration_series.h"
 #include "widgets/frame_loader.h"
 #include "widgets/history_table.h"
+#include "widgets/pipeline_controller.h"
 #include "widgets/playback_controller.h"
 #include "widgets/sequence_opener.h"
 #include "widgets/video_view.h"
@@ -54,12 +57,28 @@ constexpr char kStateKey[] = "window/state";
 constexpr char kSpeedKey[] = "playback/speed";
 constexpr char kPlotWindowKey[] = "plot/window_seconds";
 constexpr char kLastPathKey[] = "files/last_path";
+constexpr char kOverlayKeyPrefix[] = "overlays/";  // + the layer's key: on or off.
+constexpr char kViewModeKey[] = "overlays/view";   // raw, rectified or side_by_side.
 // Bumped when the docks change, so an old saved layout is not applied to a new one.
 constexpr int kStateVersion = 2;
 
 constexpr double kSpeeds[] = {0.25, 0.5, 1.0, 2.0, 4.0};
 
 QString FormatSeconds(double seconds) { return QStringLiteral("%1 s").arg(seconds, 0, 'f', 3); }
+
+struct ViewModeEntry {
+  VideoView::ViewMode mode;
+  const char* key;
+  const char* name;        // In the menu.
+  const char* short_name;  // On the toolbar.
+};
+constexpr ViewModeEntry kViewModes[] = {
+    {VideoView::ViewMode::kRaw, "raw", QT_TR_NOOP("&Raw Video"), QT_TR_NOOP("Raw")},
+    {VideoView::ViewMode::kRectified, "rectified", QT_TR_NOOP("Re&ctified Video (Box 3)"),
+     QT_TR_NOOP("Rectified")},
+    {VideoView::ViewMode::kSideBySide, "side_by_side",
+     QT_TR_NOOP("Raw and Rectified &Side by Side"), QT_TR_NOOP("Side by side")},
+};
 
 QToolButton* TransportButton(QAction* action) {
   auto* button = new QToolButton;
@@ -76,6 +95,7 @@ QToolButton* TransportButton(QAction* action) {
 MainWindow::MainWindow(QWidget* parent)
     : QMainWindow(parent),
       playback_(new PlaybackController(this)),
+      pipeline_(new PipelineController(this)),
       loader_(new FrameLoader(this)),
       opener_(new SequenceOpener(this)),
       history_opener_(new HistoryOpener(this)) {
@@ -84,6 +104,7 @@ MainWindow::MainWindow(QWidget* parent)
   createActions();
   createCentralArea();
   createDocks();
+  createOverlayControls();
   createStatusBar();
   connectControllers();
   restoreSettings();
@@ -222,14 +243,100 @@ void MainWindow::createDocks() {
   tabifyDockWidget(plot_dock, history_dock);
   plot_dock->raise();
 
-  QMenu* view = menuBar()->addMenu(tr("&View"));
-  view->addAction(plot_dock->toggleViewAction());
-  view->addAction(calibration_dock_->toggleViewAction());
-  view->addAction(history_dock->toggleViewAction());
-  view->addAction(log_dock->toggleViewAction());
+  view_menu_ = menuBar()->addMenu(tr("&View"));
+  view_menu_->addAction(plot_dock->toggleViewAction());
+  view_menu_->addAction(calibration_dock_->toggleViewAction());
+  view_menu_->addAction(history_dock->toggleViewAction());
+  view_menu_->addAction(log_dock->toggleViewAction());
+}
+
+void MainWindow::createOverlayControls() {
+  auto* toolbar = new QToolBar(tr("Overlays"), this);
+  toolbar->setObjectName(QStringLiteral("overlay_toolbar"));
+  toolbar->setToolButtonStyle(Qt::ToolButtonTextOnly);
+  toolbar->setFocusPolicy(Qt::NoFocus);
+  addToolBar(Qt::TopToolBarArea, toolbar);
+  toolbar->addWidget(new QLabel(tr(" Overlays: ")));
+
+  view_menu_->addSeparator();
+  QMenu* overlays = view_menu_->addMenu(tr("&Overlays"));
+  const QSettings settings;
+  const QString tips[] = {
+      tr("Box 1: straight lines the Radon transform found (yellow)"),
+      tr("Box 1: Radon snakes (cyan); hinges green when straight, red when bent 2° or more"),
+      tr("Box 5: tracked points and their motion since the previous frame, in their plane's "
+         "colour (grey: on no plane)"),
+      tr("Box 6: dominant planes, outlined and numbered"),
+      tr("Box 8: virtual checkerboards on the planes, through the current calibration (white): "
+         "they stick to the texture when the calibration is right"),
+      tr("Box 7: gravity (arrow from the principal point) and the horizon (dashed), magenta")};
+  for (size_t i = 0; i < std::size(kAllOverlayLayers); ++i) {
+    const OverlayLayer layer = kAllOverlayLayers[i];
+    QAction* action = overlays->addAction(OverlayLayerName(layer));
+    action->setObjectName(QStringLiteral("overlay_") + OverlayLayerKey(layer));
+    action->setCheckable(true);
+    action->setChecked(settings.value(kOverlayKeyPrefix + OverlayLayerKey(layer), false).toBool());
+    action->setToolTip(tips[i]);
+    action->setShortcut(QKeySequence(QStringLiteral("Alt+%1").arg(i + 1)));
+    connect(action, &QAction::toggled, this, &MainWindow::onLayersToggled);
+    toolbar->addAction(action);
+    layer_actions_.emplace_back(layer, action);
+  }
+  overlays->addSeparator();
+  toolbar->addSeparator();
+  view_mode_group_ = new QActionGroup(this);
+  const QString saved_mode = settings.value(kViewModeKey, QStringLiteral("raw")).toString();
+  for (const ViewModeEntry& entry : kViewModes) {
+    QAction* action = overlays->addAction(MainWindow::tr(entry.name));
+    action->setIconText(MainWindow::tr(entry.short_name));
+    action->setObjectName(QStringLiteral("view_") + QLatin1String(entry.key));
+    action->setCheckable(true);
+    action->setData(static_cast<int>(entry.mode));
+    action->setChecked(saved_mode == QLatin1String(entry.key));
+    view_mode_group_->addAction(action);
+    toolbar->addAction(action);
+  }
+  if (!view_mode_group_->checkedAction()) view_mode_group_->actions().front()->setChecked(true);
+  connect(view_mode_group_, &QActionGroup::triggered, this, &MainWindow::onViewModeChosen);
+  view_menu_->addAction(toolbar->toggleViewAction());
 
   QMenu* help = menuBar()->addMenu(tr("&Help"));
   help->addAction(tr("&About"), this, &MainWindow::showAbout);
+  onLayersToggled();
+  onViewModeChosen(view_mode_group_->checkedAction());
+}
+
+QAction* MainWindow::overlayAction(OverlayLayer layer) const {
+  for (const auto& [each, action] : layer_actions_) {
+    if (each == layer) return action;
+  }
+  return nullptr;
+}
+
+QAction* MainWindow::viewModeAction(VideoView::ViewMode mode) const {
+  for (QAction* action : view_mode_group_->actions()) {
+    if (action->data().toInt() == static_cast<int>(mode)) return action;
+  }
+  return nullptr;
+}
+
+void MainWindow::onLayersToggled() {
+  OverlayLayers layers;
+  QSettings settings;
+  for (const auto& [layer, action] : layer_actions_) {
+    if (action->isChecked()) layers |= layer;
+    settings.setValue(kOverlayKeyPrefix + OverlayLayerKey(layer), action->isChecked());
+  }
+  video_->setLayers(layers);
+}
+
+void MainWindow::onViewModeChosen(QAction* action) {
+  const auto mode = static_cast<VideoView::ViewMode>(action->data().toInt());
+  video_->setViewMode(mode);
+  pipeline_->setRectifiedWanted(mode != VideoView::ViewMode::kRaw);
+  for (const ViewModeEntry& entry : kViewModes) {
+    if (entry.mode == mode) QSettings().setValue(kViewModeKey, QLatin1String(entry.key));
+  }
 }
 
 void MainWindow::createStatusBar() {
@@ -237,7 +344,19 @@ void MainWindow::createStatusBar() {
   status_resolution_ = new QLabel;
   status_fps_ = new QLabel;
   status_position_ = new QLabel;
+  status_found_ = new QLabel;
+  status_found_->setToolTip(tr("What the pipeline found in the frame on screen"));
+  status_pipeline_ = new QLabel;
+  status_pipeline_->setObjectName(QStringLiteral("status_pipeline"));
+  status_pipeline_->setToolTip(
+      tr("Frames boxes 1-10 have processed, and how many per second of wall-clock time"));
+  status_display_ = new QLabel;
+  status_display_->setObjectName(QStringLiteral("status_display"));
+  status_display_->setToolTip(tr("Frames the video view put on screen in the last second"));
   statusBar()->addWidget(status_source_, 1);
+  statusBar()->addPermanentWidget(status_found_);
+  statusBar()->addPermanentWidget(status_pipeline_);
+  statusBar()->addPermanentWidget(status_display_);
   statusBar()->addPermanentWidget(status_resolution_);
   statusBar()->addPermanentWidget(status_fps_);
   statusBar()->addPermanentWidget(status_position_);
@@ -266,8 +385,43 @@ void MainWindow::connectControllers() {
 
   connect(loader_, &FrameLoader::frameReady, this, [this](int index, const QImage& image) {
     video_->setFrame(index, image);
+    pipeline_->setCurrentFrame(index, image);
     emit frameShown(index);
   });
+
+  connect(pipeline_, &PipelineController::overlaysChanged, this, &MainWindow::onOverlaysChanged);
+  connect(pipeline_, &PipelineController::rectifiedReady, video_, &VideoView::setRectifiedImage);
+  connect(pipeline_, &PipelineController::snapshotReady, this, &MainWindow::snapshotReady);
+  connect(pipeline_, &PipelineController::started, this, [this](int frames) {
+    run_frames_painted_ = 0;
+    run_seconds_played_ = 0.0;
+    log(tr("Pipeline started on %n frame(s), as fast as it can, from the first frame", nullptr,
+           frames));
+    onPipelineProgress();
+  });
+  connect(pipeline_, &PipelineController::historyStarted, this, [this](const QString& path) {
+    // The run's attempts go to the plots unless a history file was opened by hand.
+    if (!history_opened_by_hand_) history_opener_->open(path);
+  });
+  connect(pipeline_, &PipelineController::finished, this, [this](int frames, double seconds) {
+    onPipelineProgress();
+    QString display;
+    if (run_seconds_played_ > 1.0) {
+      display = tr("; the video view showed %1 frames per second while it ran and playback "
+                   "played")
+                    .arg(static_cast<double>(run_frames_painted_) / run_seconds_played_, 0, 'f', 1);
+    }
+    log(tr("Pipeline done: %1 frames in %2 s (%3 fps)%4")
+            .arg(QString::number(frames), QString::number(seconds, 'f', 1),
+                 QString::number(pipeline_->framesPerSecond(), 'f', 1), display));
+  });
+  connect(pipeline_, &PipelineController::failed, this, [this](const QString& message) {
+    onPipelineProgress();
+    log(tr("Pipeline stopped: %1").arg(message), true);
+  });
+  connect(&rate_timer_, &QTimer::timeout, this, &MainWindow::onRateTick);
+  rate_timer_.start(1000);
+  rate_clock_.start();
   connect(loader_, &FrameLoader::frameFailed, this, [this](int index, const QString& message) {
     log(tr("Frame %1 could not be read: %2").arg(index).arg(message), true);
   });
@@ -370,6 +524,7 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
     log(tr("Warning: %1").arg(QString::fromStdString(warning)), true);
   }
   if (count == 0) video_->showMessage(tr("%1 has no frames.").arg(description));
+  pipeline_->start(sequence_);
   emit opened(source);
   playback_->play();
 }
@@ -391,6 +546,7 @@ void MainWindow::onOpenFailed(const QString& source, const QString& message) {
 }
 
 void MainWindow::openHistory(const QString& path) {
+  history_opened_by_hand_ = true;
   log(tr("Opening history %1 \u2026").arg(path));
   statusBar()->showMessage(tr("Opening history %1 \u2026").arg(path));
   history_opener_->open(path);
@@ -411,8 +567,10 @@ void MainWindow::onHistoryOpened(const QString& path,
   }
   calibration_plots_->setSeries(series);
   history_table_->setSeries(std::move(series));
-  calibration_dock_->show();
-  calibration_dock_->raise();
+  if (path != pipeline_->historyPath()) {  // The run's own comes up without taking the dock.
+    calibration_dock_->show();
+    calibration_dock_->raise();
+  }
   emit historyOpened(path);
 }
 
@@ -473,6 +631,55 @@ void MainWindow::onPlayingChanged(bool playing) {
   play_action_->setToolTip(playing ? tr("Pause (Space)") : tr("Play (Space)"));
 }
 
+void MainWindow::onOverlaysChanged(const FrameOverlays& overlays) {
+  video_->setOverlays(overlays);
+  onPipelineProgress();
+  if (!overlays.raw) {
+    status_found_->clear();
+    return;
+  }
+  const OverlayGeometry& found = *overlays.raw;
+  status_found_->setText(tr("%1 lines, %2 snakes, %3 tracks, %4 planes, %5 boards")
+                             .arg(found.lines.size())
+                             .arg(found.snakes.size())
+                             .arg(found.tracks.size())
+                             .arg(found.planes.size())
+                             .arg(found.boards.size()));
+}
+
+void MainWindow::onPipelineProgress() {
+  const int done = pipeline_->framesDone();
+  const int total = pipeline_->frameCount();
+  if (total == 0) {
+    status_pipeline_->clear();
+    return;
+  }
+  const QString fps = QString::number(pipeline_->framesPerSecond(), 'f', 1);
+  status_pipeline_->setText(
+      pipeline_->isRunning()
+          ? tr("pipeline %1 / %2 frames, %3 fps").arg(done).arg(total).arg(fps)
+          : tr("pipeline done %1 / %2 frames, %3 fps").arg(done).arg(total).arg(fps));
+}
+
+void MainWindow::onRateTick() {
+  const double seconds = rate_clock_.restart() * 1e-3;
+  const uint64_t painted = video_->framesPainted();
+  const uint64_t frames = painted - frames_painted_at_tick_;
+  frames_painted_at_tick_ = painted;
+  if (!playback_->isPlaying() || seconds <= 0.0) {
+    display_fps_ = 0.0;
+    status_display_->clear();
+    return;
+  }
+  display_fps_ = static_cast<double>(frames) / seconds;
+  status_display_->setText(tr("display %1 fps").arg(display_fps_, 0, 'f', 1));
+  if (pipeline_->isRunning()) {
+    run_frames_painted_ += frames;
+    run_seconds_played_ += seconds;
+  }
+  onPipelineProgress();
+}
+
 void MainWindow::openFolderDialog() {
   const QString dir =
       QFileDialog::getExistingDirectory(this, tr("Open Recording Folder"), dialogStartDir());
@@ -531,6 +738,7 @@ void MainWindow::closeEvent(QCloseEvent* event) {
   settings.setValue(kGeometryKey, saveGeometry());
   settings.setValue(kStateKey, saveState(kStateVersion));
   playback_->pause();
+  pipeline_->stop();
   QMainWindow::closeEvent(event);
 }
 

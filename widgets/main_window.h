@@ -2,16 +2,26 @@
 // It wires and draws; opening, decoding and timing live in the non-widget controllers.
 #pragma once
 
+#include <cstdint>
 #include <memory>
+#include <utility>
+#include <vector>
 
+#include <QElapsedTimer>
 #include <QMainWindow>
 #include <QString>
+#include <QTimer>
+
+#include "widgets/overlay_painter.h"
+#include "widgets/video_view.h"
 
 class QAction;
+class QActionGroup;
 class QComboBox;
 class QDockWidget;
 class QDoubleSpinBox;
 class QLabel;
+class QMenu;
 class QPlainTextEdit;
 class QSlider;
 class QToolButton;
@@ -24,10 +34,12 @@ struct CalibrationSeries;
 class FrameLoader;
 class HistoryOpener;
 class HistoryTable;
+struct FrameOverlays;
+struct FrameSnapshot;
+class PipelineController;
 class PlaybackController;
 class Sequence;
 class SequenceOpener;
-class VideoView;
 
 class MainWindow : public QMainWindow {
   Q_OBJECT
@@ -40,6 +52,8 @@ class MainWindow : public QMainWindow {
   ~MainWindow() override;
 
   PlaybackController* playback() const { return playback_; }
+  // Runs boxes 1-10 over the open recording; other docks follow it through snapshotReady.
+  PipelineController* pipelineController() const { return pipeline_; }
   VideoView* videoView() const { return video_; }
   AccelPlot* accelPlot() const { return plot_; }
   CalibrationPlots* calibrationPlots() const { return calibration_plots_; }
@@ -47,6 +61,12 @@ class MainWindow : public QMainWindow {
   // The open recording (null until one opened) and what it was opened from.
   const Sequence* sequence() const { return sequence_.get(); }
   const QString& source() const { return source_; }
+  // The action that switches an overlay layer, and the one that picks a view mode.
+  QAction* overlayAction(OverlayLayer layer) const;
+  QAction* viewModeAction(VideoView::ViewMode mode) const;
+  // Frames put on screen per second by the video view, over the last second while playing
+  // (0 when paused).
+  double displayFps() const { return display_fps_; }
 
  public slots:
   // Opens a folder, a video or "sim:SPEC" in the background, then plays it. On failure
@@ -63,6 +83,8 @@ class MainWindow : public QMainWindow {
   void historyFailed(const QString& path, const QString& message);
   // A decoded frame reached the screen.
   void frameShown(int index);
+  // Every frame the pipeline has done, in frame order (PipelineController::snapshotReady).
+  void snapshotReady(std::shared_ptr<const autocal::FrameSnapshot> snapshot);
 
  protected:
   void closeEvent(QCloseEvent* event) override;
@@ -73,6 +95,7 @@ class MainWindow : public QMainWindow {
   void createActions();
   void createCentralArea();
   void createDocks();
+  void createOverlayControls();
   void createStatusBar();
   void connectControllers();
   void restoreSettings();
@@ -86,6 +109,12 @@ class MainWindow : public QMainWindow {
   void seekToTime(double seconds);
   void onFrameChanged(int index);
   void onPlayingChanged(bool playing);
+  void onOverlaysChanged(const FrameOverlays& overlays);
+  void onLayersToggled();
+  void onViewModeChosen(QAction* action);
+  void onPipelineProgress();
+  // Once a second: the display's frame rate, and the pipeline's progress.
+  void onRateTick();
   void openFolderDialog();
   void openVideoDialog();
   void openSimulationDialog();
@@ -96,6 +125,7 @@ class MainWindow : public QMainWindow {
   QString dialogStartDir() const;
 
   PlaybackController* playback_;
+  PipelineController* pipeline_;
   FrameLoader* loader_;
   SequenceOpener* opener_;
   HistoryOpener* history_opener_;
@@ -117,12 +147,28 @@ class MainWindow : public QMainWindow {
   QLabel* status_resolution_ = nullptr;
   QLabel* status_fps_ = nullptr;
   QLabel* status_position_ = nullptr;
+  QLabel* status_found_ = nullptr;
+  QLabel* status_pipeline_ = nullptr;
+  QLabel* status_display_ = nullptr;
+
+  QMenu* view_menu_ = nullptr;
+  QActionGroup* view_mode_group_ = nullptr;
+  // A history opened by hand stays in the docks; else they follow the pipeline's run.
+  bool history_opened_by_hand_ = false;
+  QTimer rate_timer_;
+  QElapsedTimer rate_clock_;
+  uint64_t frames_painted_at_tick_ = 0;
+  double display_fps_ = 0.0;
+  // Frames painted and seconds played while the pipeline ran: the display's rate under load.
+  uint64_t run_frames_painted_ = 0;
+  double run_seconds_played_ = 0.0;
 
   QAction* play_action_ = nullptr;
   QAction* step_back_action_ = nullptr;
   QAction* step_forward_action_ = nullptr;
   QAction* start_action_ = nullptr;
   QAction* end_action_ = nullptr;
+  std::vector<std::pair<OverlayLayer, QAction*>> layer_actions_;
 };
 
 }  // namespace autocal

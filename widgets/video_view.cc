@@ -1,9 +1,15 @@
 #include "widgets/video_view.h"
 
 #include <QFont>
+#include <QFontMetricsF>
 #include <QPainter>
 
 namespace autocal {
+namespace {
+
+constexpr double kPaneGap = 4.0;  // Between the panes side by side, px.
+
+}  // namespace
 
 VideoView::VideoView(QWidget* parent) : QWidget(parent) {
   setAttribute(Qt::WA_OpaquePaintEvent);
@@ -15,14 +21,44 @@ QSize VideoView::sizeHint() const { return {640, 480}; }
 
 QSize VideoView::minimumSizeHint() const { return {320, 180}; }
 
+bool VideoView::showsPane(Pane pane) const {
+  switch (view_mode_) {
+    case ViewMode::kRaw:
+      return pane == Pane::kRaw;
+    case ViewMode::kRectified:
+      return pane == Pane::kRectified;
+    case ViewMode::kSideBySide:
+      return true;
+  }
+  return false;
+}
+
+QRectF VideoView::paneArea(Pane pane) const {
+  if (view_mode_ != ViewMode::kSideBySide) return QRectF(rect());
+  const double half = (width() - kPaneGap) / 2.0;
+  return pane == Pane::kRaw ? QRectF(0, 0, half, height())
+                            : QRectF(half + kPaneGap, 0, half, height());
+}
+
 QRectF VideoView::imageRect() const {
-  if (image_.isNull()) return {};
-  const QSizeF scaled = QSizeF(image_.size()).scaled(QSizeF(size()), Qt::KeepAspectRatio);
-  return {QPointF((width() - scaled.width()) / 2.0, (height() - scaled.height()) / 2.0), scaled};
+  return imageRect(view_mode_ == ViewMode::kRectified ? Pane::kRectified : Pane::kRaw);
+}
+
+QRectF VideoView::imageRect(Pane pane) const {
+  if (image_.isNull() || !showsPane(pane)) return {};
+  const QRectF area = paneArea(pane);
+  const QSizeF scaled = QSizeF(image_.size()).scaled(area.size(), Qt::KeepAspectRatio);
+  return {QPointF(area.left() + (area.width() - scaled.width()) / 2.0,
+                  area.top() + (area.height() - scaled.height()) / 2.0),
+          scaled};
 }
 
 QTransform VideoView::imageToWidget() const {
-  const QRectF target = imageRect();
+  return imageToWidget(view_mode_ == ViewMode::kRectified ? Pane::kRectified : Pane::kRaw);
+}
+
+QTransform VideoView::imageToWidget(Pane pane) const {
+  const QRectF target = imageRect(pane);
   if (target.isEmpty()) return {};
   return QTransform::fromTranslate(target.left(), target.top())
       .scale(target.width() / image_.width(), target.height() / image_.height())
@@ -30,6 +66,10 @@ QTransform VideoView::imageToWidget() const {
 }
 
 void VideoView::setFrame(int index, const QImage& image) {
+  if (index != frame_index_) {
+    rectified_ = {};
+    rectified_pixmap_ = {};
+  }
   frame_index_ = index;
   image_ = image;
   pixmap_ = QPixmap::fromImage(image);
@@ -41,16 +81,94 @@ void VideoView::showMessage(const QString& message) {
   frame_index_ = -1;
   image_ = {};
   pixmap_ = {};
+  rectified_ = {};
+  rectified_pixmap_ = {};
+  overlays_ = {};
   message_ = message;
   update();
 }
 
+void VideoView::setViewMode(ViewMode mode) {
+  view_mode_ = mode;
+  update();
+}
+
+void VideoView::setLayers(OverlayLayers layers) {
+  layers_ = layers;
+  update();
+}
+
+void VideoView::setOverlays(const FrameOverlays& overlays) {
+  overlays_ = overlays;
+  if (overlays.index == frame_index_) update();
+}
+
+void VideoView::setRectifiedImage(int index, const QImage& image) {
+  if (index != frame_index_) return;
+  rectified_ = image;
+  rectified_pixmap_ = QPixmap::fromImage(image);
+  if (showsPane(Pane::kRectified)) update();
+}
+
+QString VideoView::pipelineNote() const {
+  if (!layers_ || frame_index_ < 0 || overlays_.index != frame_index_ || overlays_.snapshot) {
+    return {};
+  }
+  if (!overlays_.running && overlays_.pipeline_frames_done == 0) {
+    return tr("The pipeline is not running on this recording");
+  }
+  if (overlays_.pipeline_frames_done <= frame_index_) {
+    return tr("Pipeline at frame %1; this is frame %2")
+        .arg(overlays_.pipeline_frames_done)
+        .arg(frame_index_);
+  }
+  return tr("Frame %1's findings are no longer kept (the %2 frames nearest the one on screen are)")
+      .arg(frame_index_)
+      .arg(PipelineController::kMaxStoredSnapshots);
+}
+
+void VideoView::paintPane(QPainter* painter, Pane pane) {
+  const QPixmap& pixmap = pane == Pane::kRaw ? pixmap_ : rectified_pixmap_;
+  const QRectF target = imageRect(pane);
+  if (pixmap.isNull()) {
+    painter->setPen(QColor(200, 200, 200));
+    painter->drawText(target, Qt::AlignCenter | Qt::TextWordWrap,
+                      tr("Rectified image: waiting for the pipeline"));
+    return;
+  }
+  painter->drawPixmap(target, pixmap, QRectF(pixmap.rect()));
+  const std::shared_ptr<const OverlayGeometry>& overlay =
+      pane == Pane::kRaw ? overlays_.raw : overlays_.rectified;
+  if (layers_ && overlay && overlays_.index == frame_index_) {
+    painter->save();
+    painter->setClipRect(target);
+    PaintOverlay(painter, imageToWidget(pane), *overlay, layers_);
+    painter->restore();
+  }
+}
+
 void VideoView::paintEvent(QPaintEvent* /*event*/) {
+  ++paint_count_;
+  if (frame_index_ != last_painted_index_) {
+    last_painted_index_ = frame_index_;
+    if (frame_index_ >= 0) ++frames_painted_;
+  }
   QPainter painter(this);
   painter.fillRect(rect(), QColor(24, 24, 24));
   if (!pixmap_.isNull()) {
     painter.setRenderHint(QPainter::SmoothPixmapTransform);
-    painter.drawPixmap(imageRect(), pixmap_, QRectF(pixmap_.rect()));
+    for (const Pane pane : {Pane::kRaw, Pane::kRectified}) {
+      if (showsPane(pane)) paintPane(&painter, pane);
+    }
+    const QString note = pipelineNote();
+    if (!note.isEmpty()) {
+      const QFontMetricsF metrics(painter.font());
+      const QRectF box =
+          metrics.boundingRect(note).translated(10, 10 + metrics.ascent()).adjusted(-6, -3, 6, 3);
+      painter.fillRect(box, QColor(0, 0, 0, 170));
+      painter.setPen(QColor(235, 235, 235));
+      painter.drawText(box, Qt::AlignCenter, note);
+    }
     return;
   }
   if (!message_.isEmpty()) {

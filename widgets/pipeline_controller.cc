@@ -1,0 +1,312 @@
+#include "widgets/pipeline_controller.h"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <span>
+#include <utility>
+
+#ifdef __linux__
+#include <sys/resource.h>
+#include <unistd.h>
+#endif
+
+#include <QDir>
+#include <QtConcurrent/QtConcurrentRun>
+#include <opencv2/core.hpp>
+
+#include "devices/runtime.h"
+#include "devices/sequence.h"
+#include "pipeline/history_store.h"
+
+namespace autocal {
+namespace {
+
+// A view of a QImage's pixels as the cv::Mat of the same layout (no copy).
+cv::Mat PixelsOf(const QImage& image) {
+  int type;
+  switch (image.format()) {
+    case QImage::Format_Grayscale8:
+      type = CV_8UC1;
+      break;
+    case QImage::Format_RGB888:
+      type = CV_8UC3;
+      break;
+    case QImage::Format_RGB32:
+    case QImage::Format_ARGB32:
+    case QImage::Format_RGBA8888:
+      type = CV_8UC4;
+      break;
+    default:
+      return {};
+  }
+  return cv::Mat(image.height(), image.width(), type, const_cast<uchar*>(image.constBits()),
+                 static_cast<size_t>(image.bytesPerLine()));
+}
+
+// The rectified image in the layout of `image`: remapping moves pixels, whatever their
+// channels mean.
+QImage Rectify(Rectifier* rectifier, const QImage& image, const CameraIntrinsics& camera) {
+  const cv::Mat pixels = PixelsOf(image);
+  if (pixels.empty() || pixels.cols != camera.width || pixels.rows != camera.height) return {};
+  const cv::Mat rectified = rectifier->Undistort(pixels, camera);
+  QImage out(rectified.cols, rectified.rows, image.format());
+  cv::Mat target(out.height(), out.width(), rectified.type(), out.bits(),
+                 static_cast<size_t>(out.bytesPerLine()));
+  rectified.copyTo(target);
+  return out;
+}
+
+}  // namespace
+
+PipelineController::PipelineController(QObject* parent)
+    : QObject(parent), rectifier_(std::make_unique<Rectifier>()) {
+  qRegisterMetaType<FrameOverlays>();
+  qRegisterMetaType<std::shared_ptr<const FrameSnapshot>>();
+  connect(&rectify_watcher_, &QFutureWatcher<Rectified>::finished, this,
+          &PipelineController::onRectified);
+}
+
+PipelineController::~PipelineController() {
+  stop();
+  for (const std::unique_ptr<Run>& run : stopping_) run->thread.join();
+  rectify_watcher_.waitForFinished();
+}
+
+void PipelineController::stop() {
+  if (!run_) return;
+  // The feeding thread stops pushing at once; the runtime then ends its frame and the solve
+  // under way before its threads end, which can take a second: the run is joined when it
+  // reports its end, not waited for here. Its reports until then are dropped.
+  run_->stop = true;
+  stopping_.push_back(std::move(run_));
+  ++generation_;
+  if (running_) {
+    running_ = false;
+    elapsed_s_ = clock_.elapsed() * 1e-3;
+  }
+}
+
+void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
+  stop();
+  sequence_ = std::move(sequence);
+  snapshots_.clear();
+  attempts_.clear();
+  frames_done_ = 0;
+  frame_count_ = sequence_ ? static_cast<int>(sequence_->frame_count()) : 0;
+  elapsed_s_ = 0.0;
+  history_path_.clear();
+  current_ = FrameOverlays{current_.index, nullptr, nullptr, nullptr, 0, false};
+  if (!sequence_) return;
+
+  const SessionInfo& session = sequence_->session();
+  if (!session.premission_calibration) {
+    emit failed(tr("%1 has no pre-mission calibration: the pipeline needs one to start from")
+                    .arg(QString::fromStdString(sequence_->Describe())));
+    return;
+  }
+  history_dir_ = std::make_unique<QTemporaryDir>(QDir::tempPath() +
+                                                 QStringLiteral("/autocal-workbench-XXXXXX"));
+  const QString history_file = history_dir_->isValid()
+                                   ? history_dir_->filePath(QStringLiteral("history.sqlite"))
+                                   : QString();
+
+  const uint64_t generation = ++generation_;
+  run_ = std::make_unique<Run>();
+  run_->generation = generation;
+  running_ = true;
+  clock_.start();
+  emit started(frame_count_);
+  updateCurrent();
+
+  const CameraIntrinsics prior = *session.premission_calibration;
+  AccelCalibration accel;
+  accel.cam_from_accel = session.cam_from_accel;
+  run_->thread = std::thread([this, generation, sequence = sequence_, prior, accel,
+                              history_file = history_file.toStdString(), run = run_.get()] {
+    QString error;
+#ifdef __linux__
+    // The window must keep redrawing while the pipeline takes every core it can: its threads
+    // (the runtime's inherit this one's niceness) give way to the GUI and the frame loader.
+    setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), kPipelineNiceness);
+#endif
+    try {
+      std::unique_ptr<HistoryStore> store;
+      if (!history_file.empty()) store = std::make_unique<HistoryStore>(history_file);
+      std::unique_ptr<Runtime> runtime;
+      bool recorded = false;
+      // On the runtime's boxes 4-9 thread, frame after frame.
+      const auto on_frame = [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+        if (snapshot->attempt && store) {
+          store->Record(runtime->history());
+          if (!recorded) {
+            recorded = true;
+            QMetaObject::invokeMethod(
+                this,
+                [this, generation, path = QString::fromStdString(history_file)] {
+                  onAttemptRecorded(generation, path);
+                },
+                Qt::QueuedConnection);
+          }
+        }
+        QMetaObject::invokeMethod(
+            this, [this, generation, snapshot] { onSnapshot(generation, snapshot); },
+            Qt::QueuedConnection);
+      };
+      runtime =
+          std::make_unique<Runtime>(prior, accel, PipelineOptions{}, RuntimeOptions{}, on_frame);
+      // PushSequence's feeding, with a way out between frames.
+      const std::vector<AccelSample>& samples = sequence->accel();
+      size_t fed = 0;
+      for (size_t i = 0; i < sequence->frame_count() && !run->stop; ++i) {
+        const int64_t t_ns = sequence->frame_time_ns(i);
+        const size_t first = fed;
+        while (fed < samples.size() &&
+               samples[fed].t_ns + runtime->accel_offset_ns() <= t_ns + runtime->accel_lead_ns()) {
+          ++fed;
+        }
+        runtime->PushAccel(std::span(samples).subspan(first, fed - first));
+        runtime->PushFrame(t_ns, sequence->LoadFrame(i));
+      }
+      if (!run->stop) runtime->Finish();
+    } catch (const std::exception& e) {
+      error = QString::fromStdString(e.what());
+    }
+    QMetaObject::invokeMethod(
+        this, [this, generation, error] { onEnded(generation, error); }, Qt::QueuedConnection);
+  });
+}
+
+double PipelineController::framesPerSecond() const {
+  const double seconds = running_ ? clock_.elapsed() * 1e-3 : elapsed_s_;
+  return seconds > 0.0 ? frames_done_ / seconds : 0.0;
+}
+
+std::shared_ptr<const FrameSnapshot> PipelineController::snapshot(int index) const {
+  const auto found = snapshots_.find(index);
+  return found == snapshots_.end() ? nullptr : found->second;
+}
+
+void PipelineController::onSnapshot(uint64_t generation,
+                                    std::shared_ptr<const FrameSnapshot> snapshot) {
+  if (generation != generation_) return;
+  const int index = static_cast<int>(snapshot->index);  // Offline: every frame, in order.
+  frames_done_ = index + 1;
+  snapshots_[index] = snapshot;
+  evictFarthest();
+  const bool placed_boards = snapshot->attempt && !snapshot->attempt->boards.empty();
+  if (snapshot->attempt) attempts_.push_back(snapshot->attempt);
+  emit snapshotReady(snapshot);
+  if (index == current_.index || placed_boards) {
+    updateCurrent();
+  } else if (!current_.snapshot) {
+    current_.pipeline_frames_done = frames_done_;  // The "pipeline at frame N" note moves on.
+    emit overlaysChanged(current_);
+  }
+}
+
+void PipelineController::onAttemptRecorded(uint64_t generation, const QString& path) {
+  if (generation != generation_) return;
+  history_path_ = path;
+  emit historyStarted(path);
+}
+
+void PipelineController::onEnded(uint64_t generation, const QString& error) {
+  // The run's thread reported its end as its last act: joining it does not wait.
+  const auto stopped = std::find_if(stopping_.begin(), stopping_.end(),
+                                    [&](const auto& run) { return run->generation == generation; });
+  if (stopped != stopping_.end()) {
+    (*stopped)->thread.join();
+    stopping_.erase(stopped);
+  }
+  if (generation != generation_ || !run_) return;
+  running_ = false;
+  elapsed_s_ = clock_.elapsed() * 1e-3;
+  run_->thread.join();
+  run_.reset();
+  current_.running = false;
+  emit overlaysChanged(current_);
+  if (!error.isEmpty()) {
+    emit failed(error);
+  } else {
+    emit finished(frames_done_, elapsed_s_);
+  }
+}
+
+void PipelineController::evictFarthest() {
+  while (static_cast<int>(snapshots_.size()) > kMaxStoredSnapshots) {
+    const int first = snapshots_.begin()->first;
+    const int last = snapshots_.rbegin()->first;
+    const int cursor = std::max(current_.index, 0);
+    if (std::abs(cursor - first) >= std::abs(last - cursor)) {
+      snapshots_.erase(snapshots_.begin());
+    } else {
+      snapshots_.erase(std::prev(snapshots_.end()));
+    }
+  }
+}
+
+void PipelineController::setCurrentFrame(int index, const QImage& image) {
+  current_.index = index;
+  current_image_ = image;
+  updateCurrent();
+}
+
+void PipelineController::setRectifiedWanted(bool wanted) {
+  if (wanted == rectified_wanted_) return;
+  rectified_wanted_ = wanted;
+  updateCurrent();
+}
+
+std::vector<PlacedBoard> PipelineController::boardsAt(int64_t t_ns) const {
+  for (auto attempt = attempts_.rbegin(); attempt != attempts_.rend(); ++attempt) {
+    if ((*attempt)->boards.empty()) continue;
+    if (const std::optional<Eigen::Isometry3d> pose = ViewPoseAt(**attempt, t_ns)) {
+      std::vector<PlacedBoard> placed;
+      for (const VirtualBoard& board : (*attempt)->boards) placed.push_back({board, *pose});
+      return placed;
+    }
+  }
+  return {};
+}
+
+void PipelineController::updateCurrent() {
+  current_.pipeline_frames_done = frames_done_;
+  current_.running = running_;
+  current_.snapshot = snapshot(current_.index);
+  current_.raw.reset();
+  current_.rectified.reset();
+  if (current_.snapshot) {
+    const std::vector<PlacedBoard> boards = boardsAt(current_.snapshot->t_ns);
+    current_.raw = std::make_shared<const OverlayGeometry>(
+        MakeOverlayGeometry(*current_.snapshot, boards, board_options_, OverlaySpace::kRaw));
+    if (rectified_wanted_) {
+      current_.rectified = std::make_shared<const OverlayGeometry>(MakeOverlayGeometry(
+          *current_.snapshot, boards, board_options_, OverlaySpace::kRectified));
+      requestRectified();
+    }
+  }
+  emit overlaysChanged(current_);
+}
+
+void PipelineController::requestRectified() {
+  if (rectify_watcher_.isRunning()) {
+    rectify_pending_ = true;  // onRectified asks again for whatever is current then.
+    return;
+  }
+  rectify_pending_ = false;
+  if (!current_.snapshot || current_image_.isNull()) return;
+  rectify_watcher_.setFuture(QtConcurrent::run(
+      [rectifier = rectifier_.get(), index = current_.index, image = current_image_,
+       camera = current_.snapshot->working]() -> Rectified {
+        return {index, Rectify(rectifier, image, camera)};
+      }));
+}
+
+void PipelineController::onRectified() {
+  const Rectified result = rectify_watcher_.result();
+  if (!result.image.isNull()) emit rectifiedReady(result.index, result.image);
+  if (rectify_pending_ && rectified_wanted_) requestRectified();
+}
+
+}  // namespace autocal
