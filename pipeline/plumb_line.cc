@@ -5,9 +5,13 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
+#include <stdexcept>
 
 #include <ceres/ceres.h>
+#include <Eigen/Cholesky>
+#include <Eigen/SparseCore>
 
 #include "pipeline/line_detector.h"
 #include "pipeline/plumb_line_problem.h"
@@ -84,18 +88,17 @@ struct Solve {
 Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIntrinsics& start,
                 const PlumbLineOptions& options, double loss_scale_px) {
   Solve solve;
-  solve.intrinsics = start.Packed();
+  ParameterArena arena(kNumIntrinsics + PlumbLineParameterCount(lines));
+  double* const intrinsics = arena.Add(start.Packed());
   ceres::Problem problem;
   auto* ordering = new ceres::ParameterBlockOrdering;
-  PlumbLineBlocks line_blocks;
-  AddPlumbLineResiduals(lines, start, loss_scale_px, solve.intrinsics.data(), &problem, ordering,
-                        &line_blocks);
-  ordering->AddElementToGroup(solve.intrinsics.data(), 1);
+  AddPlumbLineResiduals(lines, start, loss_scale_px, intrinsics, &problem, ordering, &arena);
+  ordering->AddElementToGroup(intrinsics, 1);
   std::vector<int> fixed = {kFx, kFy};
   if (!options.estimate_centre) fixed.insert(fixed.end(), {kCx, kCy});
   if (!options.estimate_tangential) fixed.insert(fixed.end(), {kP1, kP2});
   if (!options.estimate_k3) fixed.push_back(kK3);
-  problem.SetManifold(solve.intrinsics.data(), new ceres::SubsetManifold(kNumIntrinsics, fixed));
+  problem.SetManifold(intrinsics, new ceres::SubsetManifold(kNumIntrinsics, fixed));
 
   ceres::Solver::Options solver_options;
   // Points along their lines are eliminated first (Schur complement), as in bundle
@@ -109,52 +112,133 @@ Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIn
   solve.converged = summary.IsSolutionUsable();
   solve.report = summary.BriefReport();
   if (!solve.converged) return solve;
+  std::copy_n(intrinsics, kNumIntrinsics, solve.intrinsics.begin());
 
-  std::vector<int> free;
-  for (int i = 0; i < kNumIntrinsics; ++i) {
-    if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) free.push_back(i);
-  }
-  ceres::Covariance::Options covariance_options;
-  ceres::Covariance covariance(covariance_options);
-  const std::vector<std::pair<const double*, const double*>> blocks = {
-      {solve.intrinsics.data(), solve.intrinsics.data()}};
-  if (covariance.Compute(blocks, &problem)) {
-    Eigen::Matrix<double, kNumIntrinsics, kNumIntrinsics, Eigen::RowMajor> full;
-    covariance.GetCovarianceBlock(solve.intrinsics.data(), solve.intrinsics.data(), full.data());
-    solve.covariance.resize(free.size(), free.size());
-    for (size_t a = 0; a < free.size(); ++a) {
-      for (size_t b = 0; b < free.size(); ++b) solve.covariance(a, b) = full(free[a], free[b]);
-    }
+  if (auto covariance = MarginalCovariance(&problem, *ordering, intrinsics)) {
+    solve.covariance = std::move(*covariance);
   }
   return solve;
 }
 
 }  // namespace
 
+double* ParameterArena::Add(std::span<const double> initial) {
+  if (values_.size() + initial.size() > values_.capacity()) {
+    throw std::logic_error("ParameterArena: more parameters than its capacity");
+  }
+  const size_t start = values_.size();
+  values_.insert(values_.end(), initial.begin(), initial.end());
+  return values_.data() + start;
+}
+
+// Group 0 blocks go block by block, the few hundred other columns densely. Ceres'
+// Covariance factors the whole Jacobian by sparse QR instead: most of a solve's time, and
+// on TBB threads it sums in an order that varies between runs.
+std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
+                                                  const ceres::ParameterBlockOrdering& ordering,
+                                                  double* intrinsics) {
+  std::vector<double*> blocks;
+  std::vector<int> offsets;  // Of each block's first column.
+  int columns = 0;
+  auto take = [&](double* block) {
+    if (block == intrinsics || problem->IsParameterBlockConstant(block)) return;
+    blocks.push_back(block);
+    offsets.push_back(columns);
+    columns += problem->ParameterBlockTangentSize(block);
+  };
+  for (double* block : ordering.group_to_elements().at(0)) take(block);
+  const int eliminated_blocks = int(blocks.size());
+  const int eliminated = columns;
+  for (double* block : ordering.group_to_elements().at(1)) take(block);
+  const int intrinsics_column = columns;
+  blocks.push_back(intrinsics);
+  columns += problem->ParameterBlockTangentSize(intrinsics);
+
+  ceres::Problem::EvaluateOptions evaluate;
+  evaluate.parameter_blocks = blocks;
+  ceres::CRSMatrix crs;
+  if (!problem->Evaluate(evaluate, nullptr, nullptr, nullptr, &crs) || crs.num_cols != columns) {
+    return std::nullopt;
+  }
+  Eigen::SparseMatrix<double, Eigen::RowMajor> jacobian(crs.num_rows, crs.num_cols);
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(crs.values.size());
+  for (int row = 0; row < crs.num_rows; ++row) {
+    for (int k = crs.rows[row]; k < crs.rows[row + 1]; ++k) {
+      entries.emplace_back(row, crs.cols[k], crs.values[k]);
+    }
+  }
+  jacobian.setFromTriplets(entries.begin(), entries.end());
+  const Eigen::SparseMatrix<double> je = jacobian.leftCols(eliminated);
+  const Eigen::SparseMatrix<double> jc = jacobian.rightCols(columns - eliminated);
+  const Eigen::SparseMatrix<double> hec = je.transpose() * jc;
+  const Eigen::SparseMatrix<double> hee = je.transpose() * je;
+
+  // H_ee is block diagonal: inverted block by block (a point seen along a single ray
+  // has a singular block and is left out, as it says nothing about the rest).
+  std::vector<Eigen::Triplet<double>> inverse_entries;
+  for (int b = 0; b < eliminated_blocks; ++b) {
+    const int at = offsets[b];
+    const int size = (b + 1 < eliminated_blocks ? offsets[b + 1] : eliminated) - at;
+    const Eigen::MatrixXd block = Eigen::MatrixXd(hee.block(at, at, size, size));
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(block);
+    if (ldlt.info() != Eigen::Success || ldlt.vectorD().minCoeff() <= 1e-12 * block.trace()) {
+      continue;
+    }
+    const Eigen::MatrixXd inverse = ldlt.solve(Eigen::MatrixXd::Identity(size, size));
+    for (int i = 0; i < size; ++i) {
+      for (int j = 0; j < size; ++j) inverse_entries.emplace_back(at + i, at + j, inverse(i, j));
+    }
+  }
+  Eigen::SparseMatrix<double> hee_inverse(eliminated, eliminated);
+  hee_inverse.setFromTriplets(inverse_entries.begin(), inverse_entries.end());
+  const Eigen::SparseMatrix<double> reduction = hec.transpose() * hee_inverse * hec;
+  Eigen::MatrixXd schur = Eigen::MatrixXd(jc.transpose() * jc) - Eigen::MatrixXd(reduction);
+
+  // Scaled to a unit diagonal, so that the damping below is relative to each column's own
+  // stiffness. A direction left free by the gauge would make the matrix singular; the
+  // damping, far below anything measured, gives it a huge variance instead, which the
+  // intrinsics only inherit if they share it.
+  const Eigen::VectorXd diagonal = schur.diagonal();
+  const Eigen::VectorXd scale =
+      diagonal.unaryExpr([](double d) { return d > 0.0 ? 1.0 / std::sqrt(d) : 1.0; });
+  schur = scale.asDiagonal() * schur * scale.asDiagonal();
+  schur.diagonal().array() += 1e-12;
+  const Eigen::LDLT<Eigen::MatrixXd> factor(schur);
+  if (factor.info() != Eigen::Success || factor.vectorD().minCoeff() <= 0.0) return std::nullopt;
+  const int free = columns - intrinsics_column;
+  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(schur.rows(), free);
+  unit.bottomRows(free) = scale.tail(free).asDiagonal();
+  Eigen::MatrixXd covariance = scale.tail(free).asDiagonal() * factor.solve(unit).bottomRows(free);
+  covariance = 0.5 * (covariance + covariance.transpose()).eval();
+  if (!covariance.allFinite() || covariance.diagonal().minCoeff() <= 0.0) return std::nullopt;
+  return covariance;
+}
+
+size_t PlumbLineParameterCount(const std::vector<const LineObservation*>& lines) {
+  size_t count = 0;
+  for (const LineObservation* line : lines) count += 2 + line->points.size();
+  return count;
+}
+
 void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
                            const CameraIntrinsics& start, double loss_px, double* intrinsics,
                            ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering,
-                           PlumbLineBlocks* blocks) {
-  blocks->lines.resize(lines.size());
-  size_t point_count = 0;
-  for (const LineObservation* line : lines) point_count += line->points.size();
-  blocks->positions.clear();
-  blocks->positions.reserve(point_count);  // Parameter blocks must not move.
-  for (size_t i = 0; i < lines.size(); ++i) {
-    const std::vector<Eigen::Vector2d> ideal = Undistorted(*lines[i], start);
+                           ParameterArena* arena) {
+  for (const LineObservation* observed : lines) {
+    const std::vector<Eigen::Vector2d> ideal = Undistorted(*observed, start);
     const LineFit fit = FitLine(ideal);
-    blocks->lines[i] = {fit.theta, fit.rho};
+    double* const line = arena->Add(std::array{fit.theta, fit.rho});
     const Eigen::Vector2d along(-std::sin(fit.theta), std::cos(fit.theta));
     for (size_t k = 0; k < ideal.size(); ++k) {
-      blocks->positions.push_back(along.dot(ideal[k]));
+      double* const position = arena->Add(std::array{along.dot(ideal[k])});
       problem->AddResidualBlock(
           new ceres::AutoDiffCostFunction<LinePointCost, 2, kNumIntrinsics, 2, 1>(
-              new LinePointCost(lines[i]->points[k])),
-          new ceres::CauchyLoss(loss_px), intrinsics, blocks->lines[i].data(),
-          &blocks->positions.back());
-      ordering->AddElementToGroup(&blocks->positions.back(), 0);
+              new LinePointCost(observed->points[k])),
+          new ceres::CauchyLoss(loss_px), intrinsics, line, position);
+      ordering->AddElementToGroup(position, 0);
     }
-    ordering->AddElementToGroup(blocks->lines[i].data(), 1);
+    ordering->AddElementToGroup(line, 1);
   }
 }
 

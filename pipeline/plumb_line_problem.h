@@ -1,8 +1,10 @@
-// Plumb-line residuals in a Ceres problem, shared by the distortion estimate (box 2) and
-// the calibration (box 10).
+// What the Ceres problems of the distortion estimate (box 2) and the calibration (box 10)
+// share: plumb-line residuals, parameter storage, and the covariance of the intrinsics.
 #pragma once
 
-#include <array>
+#include <cstddef>
+#include <optional>
+#include <span>
 #include <vector>
 
 #include <ceres/ordered_groups.h>
@@ -39,18 +41,44 @@ struct LinePointCost {
   Eigen::Vector2d pixel_;
 };
 
-// The line and position parameters of the plumb-line residuals; must outlive the solve.
-struct PlumbLineBlocks {
-  std::vector<std::array<double, 2>> lines;
-  std::vector<double> positions;
+// Every parameter block of one problem in a single allocation, handed out in the order
+// asked for. Ceres orders the blocks of an elimination group by address; within one
+// allocation that is this order, so two solves of the same material agree to the last
+// digit (blocks in separate allocations would be ordered by heap addresses, which differ
+// between runs).
+class ParameterArena {
+ public:
+  explicit ParameterArena(size_t capacity) { values_.reserve(capacity); }
+  ParameterArena(const ParameterArena&) = delete;
+  ParameterArena& operator=(const ParameterArena&) = delete;
+
+  // A block holding a copy of `initial`, valid as long as the arena. Throws
+  // std::logic_error beyond the capacity (the blocks handed out would move).
+  double* Add(std::span<const double> initial);
+
+ private:
+  std::vector<double> values_;
 };
 
+// The values AddPlumbLineResiduals takes from the arena for `lines`.
+size_t PlumbLineParameterCount(const std::vector<const LineObservation*>& lines);
+
 // Adds one residual per point of every line, on `intrinsics` (packed, owned by the
-// caller), with the lines and positions initialized from `start`. Positions go in
-// elimination group 0 of `ordering`, lines in group 1.
+// caller), with the lines and positions taken from `arena` and initialized from `start`.
+// Positions go in elimination group 0 of `ordering`, lines in group 1.
 void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
                            const CameraIntrinsics& start, double loss_px, double* intrinsics,
                            ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering,
-                           PlumbLineBlocks* blocks);
+                           ParameterArena* arena);
+
+// The covariance of `intrinsics` at the solution, in its tangent space (the free
+// parameters, in order), for unit residual variance: the Gauss-Newton Hessian J^T J with
+// every other parameter marginalized out by the Schur complement. `ordering` must hold
+// every non-constant block, the intrinsics in group 1 and in group 0 only blocks seen by
+// no residual together with another group-0 block (points, positions along a line).
+// Empty when the intrinsics are not constrained.
+std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
+                                                  const ceres::ParameterBlockOrdering& ordering,
+                                                  double* intrinsics);
 
 }  // namespace autocal

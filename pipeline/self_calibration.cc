@@ -414,71 +414,83 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
                                     plane_poses[r.plane].data(),
                                     plane_points[r.plane][r.point].data(), e);
   });
-  for (const Residual& r : residuals) {
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<PlanePointCost, 2, kNumIntrinsics, 6, 6, 2>(
-            new PlanePointCost(r.pixel)),
-        new ceres::CauchyLoss(options.loss_px), intrinsics.data(), frame_poses[r.frame].data(),
-        plane_poses[r.plane].data(), plane_points[r.plane][r.point].data());
-  }
   result.observations_used = int(residuals.size());
   if (residuals.empty()) return no_update("no plane point seen from two placed frames");
-  for (size_t p = 0; p < tracks.size(); ++p) {
-    if (plane_points[p].size() < 2) continue;
-    for (auto& [id, uv] : plane_points[p]) {
-      if (problem.HasParameterBlock(uv.data())) ordering->AddElementToGroup(uv.data(), 0);
-    }
-    auto first = plane_points[p].begin();
-    if (problem.HasParameterBlock(first->second.data())) {
-      problem.SetParameterBlockConstant(first->second.data());
-    }
-    auto second = std::next(first);
-    if (problem.HasParameterBlock(second->second.data())) {
-      problem.SetManifold(second->second.data(), new ceres::SubsetManifold(2, {1}));
-    }
-    if (problem.HasParameterBlock(plane_poses[p].data())) {
-      ordering->AddElementToGroup(plane_poses[p].data(), 1);
-    }
-  }
-  // Gauge: the reference camera is the world, and the anchor's origin sits at its depth.
-  problem.SetParameterBlockConstant(frame_poses[reference].data());
-  if (problem.HasParameterBlock(plane_poses[0].data())) {
-    problem.SetManifold(plane_poses[0].data(), new ceres::SubsetManifold(6, {5}));
-  }
-  for (int f : posed) {
-    if (problem.HasParameterBlock(frame_poses[f].data())) {
-      ordering->AddElementToGroup(frame_poses[f].data(), 1);
-    }
-  }
 
-  // Straight lines (box 2) and gravity at rest (box 7).
+  // The parameter blocks, in one arena: plane points (eliminated first), then the
+  // intrinsics, frame poses and plane poses; the lines and the gravity direction after.
   std::vector<const LineObservation*> lines;
   for (const LineObservation& line : material.lines) {
     if (line.points.size() >= 5) lines.push_back(&line);
   }
-  PlumbLineBlocks line_blocks;
-  AddPlumbLineResiduals(lines, prior, options.loss_px, intrinsics.data(), &problem, ordering,
-                        &line_blocks);
+  size_t capacity = kNumIntrinsics + 6 * (posed.size() + tracks.size()) + 3 +
+                    PlumbLineParameterCount(lines);
+  for (const auto& points : plane_points) capacity += 2 * points.size();
+  ParameterArena arena(capacity);
+  std::vector<std::map<int, double*>> point_blocks(tracks.size());
+  for (size_t p = 0; p < tracks.size(); ++p) {
+    for (const auto& [id, uv] : plane_points[p]) point_blocks[p][id] = arena.Add(uv);
+  }
+  double* const intrinsics_block = arena.Add(intrinsics);
+  std::vector<double*> frame_blocks(material.frame_count, nullptr);
+  for (int f : posed) frame_blocks[f] = arena.Add(frame_poses[f]);
+  std::vector<double*> plane_blocks(tracks.size());
+  for (size_t p = 0; p < tracks.size(); ++p) plane_blocks[p] = arena.Add(plane_poses[p]);
+
+  for (const Residual& r : residuals) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<PlanePointCost, 2, kNumIntrinsics, 6, 6, 2>(
+            new PlanePointCost(r.pixel)),
+        new ceres::CauchyLoss(options.loss_px), intrinsics_block, frame_blocks[r.frame],
+        plane_blocks[r.plane], point_blocks[r.plane].at(r.point));
+  }
+  for (size_t p = 0; p < tracks.size(); ++p) {
+    if (point_blocks[p].size() < 2) continue;
+    for (const auto& [id, block] : point_blocks[p]) {
+      if (problem.HasParameterBlock(block)) ordering->AddElementToGroup(block, 0);
+    }
+    double* const first = point_blocks[p].begin()->second;
+    if (problem.HasParameterBlock(first)) problem.SetParameterBlockConstant(first);
+    double* const second = std::next(point_blocks[p].begin())->second;
+    if (problem.HasParameterBlock(second)) {
+      problem.SetManifold(second, new ceres::SubsetManifold(2, {1}));
+    }
+    if (problem.HasParameterBlock(plane_blocks[p])) {
+      ordering->AddElementToGroup(plane_blocks[p], 1);
+    }
+  }
+  // Gauge: the reference camera is the world, and the anchor's origin sits at its depth.
+  problem.SetParameterBlockConstant(frame_blocks[reference]);
+  if (problem.HasParameterBlock(plane_blocks[0])) {
+    problem.SetManifold(plane_blocks[0], new ceres::SubsetManifold(6, {5}));
+  }
+  for (int f : posed) {
+    if (problem.HasParameterBlock(frame_blocks[f])) {
+      ordering->AddElementToGroup(frame_blocks[f], 1);
+    }
+  }
+
+  // Straight lines (box 2) and gravity at rest (box 7).
+  AddPlumbLineResiduals(lines, prior, options.loss_px, intrinsics_block, &problem, ordering,
+                        &arena);
   result.lines_used = int(lines.size());
-  std::array<double, 3> down_world = {0.0, 1.0, 0.0};
-  bool down_set = false;
+  double* down_world = nullptr;
   for (const GravityObservation& g : material.gravity) {
     if (g.frame < 0 || g.frame >= material.frame_count || !structure.cam_from_world[g.frame]) {
       continue;
     }
-    if (!down_set) {
+    if (!down_world) {
       const Eigen::Vector3d d =
           structure.cam_from_world[g.frame]->rotation().transpose() * g.down_cam.normalized();
-      down_world = {d.x(), d.y(), d.z()};
-      down_set = true;
+      down_world = arena.Add(std::array{d.x(), d.y(), d.z()});
     }
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GravityCost, 3, 6, 3>(new GravityCost(
                                  g.down_cam.normalized(), 180.0 / M_PI / g.sigma_deg)),
-                             nullptr, frame_poses[g.frame].data(), down_world.data());
+                             nullptr, frame_blocks[g.frame], down_world);
   }
-  if (down_set) {
-    problem.SetManifold(down_world.data(), new ceres::SphereManifold<3>());
-    ordering->AddElementToGroup(down_world.data(), 1);
+  if (down_world) {
+    problem.SetManifold(down_world, new ceres::SphereManifold<3>());
+    ordering->AddElementToGroup(down_world, 1);
   }
 
   // Which intrinsics are free, and the weak prior on them.
@@ -497,23 +509,31 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   problem.AddResidualBlock(
       new ceres::AutoDiffCostFunction<PriorCost, kNumIntrinsics, kNumIntrinsics>(
           new PriorCost(prior.Packed(), weight)),
-      nullptr, intrinsics.data());
+      nullptr, intrinsics_block);
   if (!fixed.empty()) {
-    problem.SetManifold(intrinsics.data(), new ceres::SubsetManifold(kNumIntrinsics, fixed));
+    problem.SetManifold(intrinsics_block, new ceres::SubsetManifold(kNumIntrinsics, fixed));
   }
-  ordering->AddElementToGroup(intrinsics.data(), 1);
+  ordering->AddElementToGroup(intrinsics_block, 1);
 
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   solver_options.linear_solver_ordering.reset(ordering);
   solver_options.max_num_iterations = options.max_iterations;
-  solver_options.num_threads = 2;
+  // One thread: with two, the gradient and the Schur complement are summed in an order
+  // that depends on thread timing, and results would differ in the last digits.
+  solver_options.num_threads = 1;
   // Trial steps that put a point behind a camera are refused, as they should be; Ceres
   // would log each one.
   solver_options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
   if (!summary.IsSolutionUsable()) return no_update("the solver failed: " + summary.BriefReport());
+  std::copy_n(intrinsics_block, kNumIntrinsics, intrinsics.begin());
+  for (int f : posed) std::copy_n(frame_blocks[f], 6, frame_poses[f].begin());
+  for (size_t p = 0; p < tracks.size(); ++p) {
+    std::copy_n(plane_blocks[p], 6, plane_poses[p].begin());
+    for (auto& [id, uv] : plane_points[p]) std::copy_n(point_blocks[p].at(id), 2, uv.begin());
+  }
 
   const CameraIntrinsics estimate =
       CameraIntrinsics::FromPacked(intrinsics, prior.width, prior.height);
@@ -529,7 +549,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   result.cam_from_world.resize(material.frame_count);
   for (int f : posed) result.cam_from_world[f] = ToIsometry(frame_poses[f]);
   for (size_t p = 0; p < tracks.size(); ++p) {
-    if (!problem.HasParameterBlock(plane_poses[p].data())) continue;
+    if (!problem.HasParameterBlock(plane_blocks[p])) continue;
     PlaneEstimate plane;
     plane.id = used[p]->id;
     plane.world_from_plane = ToIsometry(plane_poses[p]);
@@ -544,26 +564,15 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     if (std::find(fixed.begin(), fixed.end(), i) == fixed.end())
       result.free_parameters.push_back(i);
   }
-  ceres::Covariance::Options covariance_options;
-  ceres::Covariance covariance(covariance_options);
-  const std::vector<std::pair<const double*, const double*>> block = {
-      {intrinsics.data(), intrinsics.data()}};
-  if (!covariance.Compute(block, &problem)) {
+  const std::optional<Eigen::MatrixXd> unit_covariance =
+      MarginalCovariance(&problem, *solver_options.linear_solver_ordering, intrinsics_block);
+  if (!unit_covariance) {
     return no_update("the material does not constrain the intrinsics (singular covariance)");
   }
-  Eigen::Matrix<double, kNumIntrinsics, kNumIntrinsics, Eigen::RowMajor> full;
-  covariance.GetCovarianceBlock(intrinsics.data(), intrinsics.data(), full.data());
-  // Ceres assumes unit residual variance; the residuals are pixels with the RMS found.
+  // The residuals are pixels with the RMS found, not of unit variance.
   const double variance = std::max(result.rms_px * result.rms_px, 1e-4);
-  const size_t n = result.free_parameters.size();
-  result.covariance.resize(n, n);
-  for (size_t a = 0; a < n; ++a) {
-    for (size_t b = 0; b < n; ++b) {
-      result.covariance(a, b) =
-          variance * full(result.free_parameters[a], result.free_parameters[b]);
-    }
-  }
-  const double focal_sigma = std::sqrt(variance * full(kFx, kFx)) / estimate.fx;
+  result.covariance = variance * *unit_covariance;
+  const double focal_sigma = std::sqrt(result.covariance(0, 0)) / estimate.fx;  // fx is free.
   result.estimate = estimate;
   if (focal_sigma > options.max_focal_sigma) {
     std::ostringstream why;

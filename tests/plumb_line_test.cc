@@ -4,8 +4,11 @@
 #include <cstdio>
 #include <vector>
 
+#include <ceres/ceres.h>
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+
+#include "pipeline/plumb_line_problem.h"
 
 #include "tests/test_util.h"
 
@@ -113,6 +116,46 @@ TEST(PlumbLine, FreesTangentialK3AndTheCentreWhenAsked) {
   // With k1, k2 alone about the wrong centre, this lens cannot be matched.
   const PlumbLineResult radial_only = EstimateDistortion(lines, start, PlumbLineOptions());
   EXPECT_GT(MaxDistortionDifference(radial_only.estimate, truth, 0.9), 1.0);
+}
+
+// The Schur-complement covariance against Ceres' own, by dense SVD of the whole Jacobian,
+// on a solved plumb-line problem whose distortion and centre are free.
+TEST(PlumbLine, MarginalCovarianceAgreesWithCeresDenseSvd) {
+  const CameraIntrinsics truth = test::SonnarLikeCamera(-0.3, 0.1);
+  cv::RNG rng(5);
+  const auto observed = SampleLines(truth, 12, 0, 0.3, rng);
+  std::vector<const LineObservation*> lines;
+  for (const LineObservation& line : observed) lines.push_back(&line);
+  ParameterArena arena(kNumIntrinsics + PlumbLineParameterCount(lines));
+  double* const intrinsics = arena.Add(truth.Packed());
+  ceres::Problem problem;
+  auto* ordering = new ceres::ParameterBlockOrdering;
+  AddPlumbLineResiduals(lines, truth, 1.0, intrinsics, &problem, ordering, &arena);
+  ordering->AddElementToGroup(intrinsics, 1);
+  problem.SetManifold(intrinsics, new ceres::SubsetManifold(kNumIntrinsics, {kFx, kFy, kP1, kP2}));
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_SCHUR;
+  options.linear_solver_ordering.reset(ordering);
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  ASSERT_TRUE(summary.IsSolutionUsable()) << summary.BriefReport();
+
+  const std::optional<Eigen::MatrixXd> ours = MarginalCovariance(&problem, *ordering, intrinsics);
+  ASSERT_TRUE(ours.has_value());
+  ASSERT_EQ(ours->rows(), 5);  // cx, cy, k1, k2, k3.
+  ceres::Covariance::Options svd;
+  svd.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance covariance(svd);
+  const std::vector<std::pair<const double*, const double*>> block = {{intrinsics, intrinsics}};
+  ASSERT_TRUE(covariance.Compute(block, &problem));
+  Eigen::MatrixXd theirs(5, 5);
+  covariance.GetCovarianceBlockInTangentSpace(intrinsics, intrinsics, theirs.data());
+  for (int a = 0; a < 5; ++a) {
+    for (int b = 0; b < 5; ++b) {
+      EXPECT_NEAR((*ours)(a, b), theirs(a, b), 1e-6 * std::sqrt(theirs(a, a) * theirs(b, b)))
+          << "entry (" << a << ", " << b << ")";
+    }
+  }
 }
 
 TEST(PlumbLine, SaysWhyWhenThereAreTooFewLines) {
