@@ -11,10 +11,9 @@
 
 #include "app/cli_commands.h"
 #include "app/cli_util.h"
+#include "devices/device_list.h"
 #include "devices/recorder.h"
 #include "devices/source.h"
-#include "devices/usb/usb_accelerometer.h"
-#include "devices/video_devices.h"
 #include "pipeline/error.h"
 
 namespace autocal::cli {
@@ -137,26 +136,9 @@ int Devices(const QStringList& arguments) {
       "is found.");
   if (const auto code = Parse(parser, name, arguments)) return *code;
 
-  const std::vector<VideoDeviceInfo> cameras = ListVideoDevices();
-  bool any_camera = false;
-  std::printf("cameras:\n");
-  if (cameras.empty()) std::printf("  none (no /dev/video* device)\n");
-  for (const VideoDeviceInfo& camera : cameras) {
-    any_camera |= camera.can_capture;
-    std::printf("  %s", DescribeVideoDevice(camera).c_str());
-  }
-
-  std::printf("accelerometer:\n");
-  bool any_accelerometer = false;
-  try {
-    UsbAccelerometer accelerometer;
-    accelerometer.Start();
-    std::printf("  %s\n", accelerometer.Describe().c_str());
-    any_accelerometer = true;
-  } catch (const Error& error) {
-    std::printf("  none: %s\n", error.what());
-  }
-  return any_camera || any_accelerometer ? 0 : 1;
+  const DeviceListing listing = ListDevices();
+  std::printf("%s", listing.Text().c_str());
+  return listing.AnyDevice() ? 0 : 1;
 }
 
 }  // namespace autocal::cli

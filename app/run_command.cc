@@ -1,4 +1,8 @@
-// `autocal run`: a recording through boxes 1-10, headless.
+// `autocal run`: a recording or a live source through boxes 1-10, headless.
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -9,12 +13,18 @@
 #include "app/cli_util.h"
 #include "devices/offline_runner.h"
 #include "devices/sequence.h"
+#include "devices/source.h"
 #include "pipeline/calibration_io.h"
 #include "pipeline/error.h"
 #include "pipeline/option_fields.h"
 
 namespace autocal::cli {
 namespace {
+
+// Set by SIGINT/SIGTERM during a live run: it stops cleanly, history and summary complete.
+std::atomic<bool> g_stop_requested{false};
+
+void RequestStop(int) { g_stop_requested = true; }
 
 void PrintCalibration(const char* label, const CameraIntrinsics& c) {
   std::printf("%-8s fx %.2f fy %.2f cx %.2f cy %.2f k1 %.5f k2 %.5f p1 %.6f p2 %.6f k3 %.5f\n",
@@ -44,6 +54,24 @@ void PrintReport(const RunReport& report) {
   for (const Alarm& alarm : report.alarms) {
     std::printf("alarm at %.2f s: %s\n", 1e-9 * double(alarm.t_ns), alarm.description.c_str());
   }
+  if (report.live) {
+    const LiveRunReport& live = *report.live;
+    std::printf(
+        "live: %llu frames received, %llu dropped (%llu by the pipeline, %llu by the source), "
+        "%llu accelerometer samples dropped; ended by %s\n",
+        static_cast<unsigned long long>(live.frames_received),
+        static_cast<unsigned long long>(live.frames_dropped()),
+        static_cast<unsigned long long>(live.pipeline_dropped),
+        static_cast<unsigned long long>(live.source_dropped),
+        static_cast<unsigned long long>(live.accel_dropped), live.ended_by.c_str());
+    for (const TimeGap& gap : live.camera_gaps) {
+      std::printf("camera gap: %.3f s without frames\n", gap.seconds());
+    }
+    if (live.camera_disconnections > 0 || live.accel_disconnections > 0) {
+      std::printf("disconnections: camera %d, accelerometer %d\n", live.camera_disconnections,
+                  live.accel_disconnections);
+    }
+  }
   if (report.truth) {
     PrintError("error against the truth:", report.truth->final);
     if (report.truth->converged_at_s) {
@@ -55,6 +83,41 @@ void PrintReport(const RunReport& report) {
   }
 }
 
+// One line a second while a live source runs (rewritten in place on a terminal).
+void PrintLiveProgress(const RunProgress& p, bool tty) {
+  std::fprintf(stderr, "%srun: %.1f s, %zu frames done of %zu received, %llu dropped",
+               tty ? "\r\033[K" : "", p.wall_seconds, p.frame, p.frames,
+               static_cast<unsigned long long>(p.frames_dropped));
+  if (p.source) {
+    std::fprintf(stderr, " (camera %.1f Hz, accelerometer %.0f Hz)", p.source->camera_rate_hz,
+                 p.source->accel_rate_hz);
+  }
+  if (p.snapshot) {
+    const CameraIntrinsics& c = p.snapshot->calibration.calibration;
+    std::fprintf(stderr, "; fx %.1f cx %.1f cy %.1f, regime %d", c.fx, c.cx, c.cy,
+                 p.snapshot->calibration.regime);
+  }
+  std::fprintf(stderr, tty ? "" : "\n");
+}
+
+// Starts the live source and runs it until it ends, --seconds pass or SIGINT/SIGTERM.
+RunReport RunLive(FrameSource& source, const RunSettings& settings, double seconds) {
+  g_stop_requested = false;
+  std::signal(SIGINT, RequestStop);
+  std::signal(SIGTERM, RequestStop);
+  const bool tty = isatty(STDERR_FILENO);
+  LiveRunControl control;
+  control.seconds = seconds;
+  control.stop = &g_stop_requested;
+  control.progress = [tty](const RunProgress& p) { PrintLiveProgress(p, tty); };
+  control.on_event = [tty](const SourceEvent& event) {
+    std::fprintf(stderr, "%srun: %s\n", tty ? "\r\033[K" : "", FormatSourceEvent(event).c_str());
+  };
+  RunReport report = RunSource(source, settings, control);
+  if (tty) std::fprintf(stderr, "\n");
+  return report;
+}
+
 }  // namespace
 
 int Run(const QStringList& arguments) {
@@ -62,13 +125,27 @@ int Run(const QStringList& arguments) {
   QCommandLineParser parser;
   parser.setApplicationDescription(
       "Runs a recording through the whole pipeline (lines, distortion, tracks, planes,\n"
-      "accelerometer, self-calibration, history) headless, as fast as the machine allows.\n"
-      "Every calibration attempt and its verdict goes to the history; the output is the\n"
-      "filtered calibration.");
+      "accelerometer, self-calibration, history) headless, as fast as the machine allows,\n"
+      "or a live source (camera:N with --accel usb, or a recording played with --live) as it\n"
+      "comes, dropping the frames the pipeline cannot take, until it ends, --seconds pass or\n"
+      "Ctrl-C. Every calibration attempt and its verdict goes to the history; the output is\n"
+      "the filtered calibration.");
   parser.addOptions({
       {"input",
-       "Native recording, EuRoC or TUM folder, video with accelerometer CSV, or sim:SCENARIO.",
-       "path"},
+       "Native recording, EuRoC or TUM folder, video with accelerometer CSV, image folder, "
+       "sim:SCENARIO, or a live camera: camera:N, camera:/dev/videoN (with ,size=WxH ,fps=F "
+       ",format=MJPG).",
+       "source"},
+      {"accel",
+       "Accelerometer: usb, usb:VID:PID, usb:mapping=FILE (with a camera), a CSV file, or none "
+       "(default: the input's own).",
+       "spec"},
+      {"live",
+       "Play a recorded input in real time as a live source: frames the pipeline cannot take "
+       "are dropped and counted."},
+      {"speed", "With --live: recording seconds played per second (default 1).", "x", "1"},
+      {"seconds", "Live: stop after this many wall-clock seconds (default: at the end or Ctrl-C).",
+       "s"},
       {"prior",
        "Calibration to start from (any format `autocal` writes); default: the recording's "
        "pre-mission calibration.",
@@ -79,9 +156,11 @@ int Run(const QStringList& arguments) {
       {"format",
        "Format of --export: " + QString::fromStdString([] {
          std::string names;
-         for (const std::string& n : CalibrationFormatNames()) names += (names.empty() ? "" : ", ") + n;
+         for (const std::string& n : CalibrationFormatNames())
+           names += (names.empty() ? "" : ", ") + n;
          return names;
-       }()) + ".",
+       }()) +
+           ".",
        "name"},
       {"accel-offset", "Seconds added to accelerometer timestamps (default 0).", "s", "0"},
       {"settings", "Pipeline settings file (name = value lines; see --print-settings).", "file"},
@@ -96,6 +175,20 @@ int Run(const QStringList& arguments) {
   }
   if (parser.isSet("export") != parser.isSet("format")) {
     return UsageError(name, "--export and --format go together", parser);
+  }
+  double seconds = 0.0;
+  if (parser.isSet("seconds")) {
+    bool ok = false;
+    seconds = parser.value("seconds").toDouble(&ok);
+    if (!ok || !(seconds > 0)) return UsageError(name, "--seconds takes a positive number", parser);
+  }
+  const std::string input = parser.value("input").toStdString();
+  // Through the source interface: live inputs, and recordings with another accelerometer.
+  const bool as_source =
+      parser.isSet("live") || parser.isSet("accel") || input.starts_with("camera:");
+  if (as_source && parser.isSet("truncate-at-fault")) {
+    return UsageError(name, "--truncate-at-fault goes with a recording alone (no --live, --accel)",
+                      parser);
   }
   bool offset_ok = false;
   RunSettings settings;
@@ -125,26 +218,54 @@ int Run(const QStringList& arguments) {
     if (parser.isSet("format")) {
       export_format = CalibrationFormatFromName(parser.value("format").toStdString());
     }
-    if (parser.isSet("prior")) settings.prior = ReadCalibration(parser.value("prior").toStdString());
+    if (parser.isSet("prior"))
+      settings.prior = ReadCalibration(parser.value("prior").toStdString());
     settings.history_path = parser.value("history").toStdString();
-    ReadOptions read_options;
-    read_options.truncate_at_fault = parser.isSet("truncate-at-fault");
-    const std::unique_ptr<Sequence> sequence =
-        OpenSequence(parser.value("input").toStdString(), read_options);
-    for (const std::string& warning : sequence->warnings()) {
-      std::fprintf(stderr, "autocal run: warning: %s\n", warning.c_str());
+    std::unique_ptr<FrameSource> source;
+    std::unique_ptr<Sequence> opened;
+    const Sequence* sequence = nullptr;
+    if (as_source) {
+      SourceOptions source_options;
+      source_options.real_time = parser.isSet("live");
+      bool speed_ok = false;
+      source_options.real_time_speed = parser.value("speed").toDouble(&speed_ok);
+      if (!speed_ok || (parser.isSet("speed") && !parser.isSet("live"))) {
+        return UsageError(name, "--speed takes a number and goes with --live", parser);
+      }
+      source = OpenSource(input, parser.value("accel").toStdString(), source_options);
+      sequence = source->live() ? nullptr : source->sequence();
+    } else {
+      ReadOptions read_options;
+      read_options.truncate_at_fault = parser.isSet("truncate-at-fault");
+      opened = OpenSequence(input, read_options);
+      sequence = opened.get();
+    }
+    if (sequence && parser.isSet("seconds")) {
+      return UsageError(name, "--seconds goes with a live source (camera:N, or --live)", parser);
+    }
+    if (sequence) {
+      for (const std::string& warning : sequence->warnings()) {
+        std::fprintf(stderr, "autocal run: warning: %s\n", warning.c_str());
+      }
+    } else if (!parser.isSet("seconds") && !source->sequence()) {
+      std::fprintf(stderr, "autocal run: running until Ctrl-C (--seconds N stops earlier)\n");
     }
 
-    ProgressPrinter printer("run", "frames");
-    const RunReport report = RunSequence(*sequence, settings, [&](const RunProgress& progress) {
-      const CameraIntrinsics& c = progress.snapshot->calibration.calibration;
-      printer(progress.frame, progress.frames,
-              QString("fx %1 cx %2 cy %3, regime %4")
-                  .arg(c.fx, 0, 'f', 1)
-                  .arg(c.cx, 0, 'f', 1)
-                  .arg(c.cy, 0, 'f', 1)
-                  .arg(progress.snapshot->calibration.regime));
-    });
+    RunReport report;
+    if (sequence) {
+      ProgressPrinter printer("run", "frames");
+      report = RunSequence(*sequence, settings, [&](const RunProgress& progress) {
+        const CameraIntrinsics& c = progress.snapshot->calibration.calibration;
+        printer(progress.frame, progress.frames,
+                QString("fx %1 cx %2 cy %3, regime %4")
+                    .arg(c.fx, 0, 'f', 1)
+                    .arg(c.cx, 0, 'f', 1)
+                    .arg(c.cy, 0, 'f', 1)
+                    .arg(progress.snapshot->calibration.regime));
+      });
+    } else {
+      report = RunLive(*source, settings, seconds);
+    }
     PrintReport(report);
     if (parser.isSet("summary")) WriteSummary(parser.value("summary").toStdString(), report);
     if (export_format) {

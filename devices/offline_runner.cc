@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <memory>
+#include <mutex>
+#include <span>
 
 #include "pipeline/error.h"
 #include "pipeline/history_store.h"
@@ -72,6 +75,89 @@ std::string ErrorJson(const CalibrationError& e) {
          ", \"distortion_px\": " + JsonNumber(e.distortion_px) + "}";
 }
 
+// The calibration a run starts from, checked against the frames' size.
+CameraIntrinsics StartingCalibration(const std::string& input, const SessionInfo& session,
+                                     const RunSettings& settings) {
+  CameraIntrinsics prior;
+  if (settings.prior) {
+    prior = *settings.prior;
+  } else if (session.premission_calibration) {
+    prior = *session.premission_calibration;
+  } else {
+    throw Error(input + " has no pre-mission calibration: give one with --prior");
+  }
+  if (prior.width != session.width || prior.height != session.height) {
+    throw Error("the calibration is for " + std::to_string(prior.width) + "x" +
+                std::to_string(prior.height) + " images, " + input + " has " +
+                std::to_string(session.width) + "x" + std::to_string(session.height));
+  }
+  return prior;
+}
+
+std::unique_ptr<HistoryStore> OpenNewHistory(const RunSettings& settings) {
+  if (settings.history_path.empty()) return nullptr;
+  auto store = std::make_unique<HistoryStore>(settings.history_path);
+  // A history is one run's: refused before the work, not after it.
+  if (const size_t held = store->Load().attempts.size()) {
+    throw Error(settings.history_path, 0,
+                "already holds a calibration history (" + std::to_string(held) +
+                    " attempts); give a new file");
+  }
+  return store;
+}
+
+// What the runtime's frames say, gathered on its boxes 4-9 thread.
+struct FrameLog {
+  std::map<std::string, std::vector<double>> times;
+  std::vector<int64_t> t_ns;
+  std::vector<CameraIntrinsics> outputs;
+
+  void Add(const FrameSnapshot& snapshot) {
+    double frame_ms = 0.0;
+    for (const auto& [box, ms] : snapshot.timing.Named()) {
+      if (ms > 0.0) times[box].push_back(ms);
+      if (box != "calibration") frame_ms += ms;
+    }
+    times["frame"].push_back(frame_ms);
+    t_ns.push_back(snapshot.t_ns);
+    outputs.push_back(snapshot.calibration.calibration);
+  }
+};
+
+// Everything after the last frame: counts, verdicts, timings, and the error against the
+// truth (`truth` one entry per processed frame, or null).
+void CompleteReport(const Runtime& runtime, FrameLog log,
+                    const std::vector<GroundTruthFrame>* truth, const RunSettings& settings,
+                    std::chrono::steady_clock::time_point start, RunReport* report) {
+  log.times["update_latency"] = runtime.stats().update_latency_ms;
+  report->wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (log.t_ns.size() > 1) report->seconds = 1e-9 * double(log.t_ns.back() - log.t_ns.front());
+  report->fps = report->wall_seconds > 0 ? double(report->frames) / report->wall_seconds : 0.0;
+
+  const CalibrationHistory& history = runtime.history();
+  report->final = history.Current(log.t_ns.empty() ? 0 : log.t_ns.back());
+  report->attempts = static_cast<int>(history.attempts().size());
+  for (const AttemptRecord& attempt : history.attempts()) {
+    ++report->verdicts[attempt.verdict];
+    if (attempt.verdict == Verdict::kAccepted || attempt.verdict == Verdict::kNewRegime) {
+      report->final_rms_px = attempt.rms_px;
+    }
+    if (attempt.verdict == Verdict::kNoUpdate &&
+        std::find(report->no_update_reasons.begin(), report->no_update_reasons.end(),
+                  attempt.reason) == report->no_update_reasons.end()) {
+      report->no_update_reasons.push_back(attempt.reason);
+    }
+  }
+  report->alarms = history.alarms();
+  for (auto& [box, values] : log.times) {
+    if (!values.empty()) report->timing[box] = Stats(std::move(values));
+  }
+  if (truth && truth->size() == log.t_ns.size() && !truth->empty()) {
+    report->truth = CompareWithTruth(log.t_ns, log.outputs, *truth, settings.convergence);
+  }
+}
+
 }  // namespace
 
 RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
@@ -79,35 +165,12 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   const SessionInfo& session = sequence.session();
   RunReport report;
   report.input = sequence.Describe();
-  if (settings.prior) {
-    report.prior = *settings.prior;
-  } else if (session.premission_calibration) {
-    report.prior = *session.premission_calibration;
-  } else {
-    throw Error(report.input + " has no pre-mission calibration: give one with --prior");
-  }
-  if (report.prior.width != session.width || report.prior.height != session.height) {
-    throw Error("the calibration is for " + std::to_string(report.prior.width) + "x" +
-                std::to_string(report.prior.height) + " images, " + report.input + " has " +
-                std::to_string(session.width) + "x" + std::to_string(session.height));
-  }
-
+  report.prior = StartingCalibration(report.input, session, settings);
   AccelCalibration accel;
   accel.cam_from_accel = session.cam_from_accel;
-  std::unique_ptr<HistoryStore> store;
-  if (!settings.history_path.empty()) {
-    store = std::make_unique<HistoryStore>(settings.history_path);
-    // A history is one run's: refused before the work, not after it.
-    if (const size_t held = store->Load().attempts.size()) {
-      throw Error(settings.history_path, 0,
-                  "already holds a calibration history (" + std::to_string(held) +
-                      " attempts); give a new file");
-    }
-  }
+  const std::unique_ptr<HistoryStore> store = OpenNewHistory(settings);
 
-  std::map<std::string, std::vector<double>> times;
-  std::vector<int64_t> frame_times;
-  std::vector<CameraIntrinsics> outputs;
+  FrameLog log;
   report.frames = sequence.frame_count();
   const auto start = std::chrono::steady_clock::now();
   RuntimeOptions runtime_options = settings.runtime;
@@ -115,17 +178,10 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   std::unique_ptr<Runtime> runtime;
   // Runs on the runtime's boxes 4-9 thread, frame after frame.
   const auto on_frame = [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
-    double frame_ms = 0.0;
-    for (const auto& [box, ms] : snapshot->timing.Named()) {
-      if (ms > 0.0) times[box].push_back(ms);
-      if (box != "calibration") frame_ms += ms;
-    }
-    times["frame"].push_back(frame_ms);
+    log.Add(*snapshot);
     if (snapshot->attempt && store) store->Record(runtime->history());
-    frame_times.push_back(snapshot->t_ns);
-    outputs.push_back(snapshot->calibration.calibration);
     if (progress) {
-      progress({frame_times.size(), report.frames,
+      progress({log.t_ns.size(), report.frames,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
                 snapshot.get()});
     }
@@ -133,34 +189,141 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
                                       on_frame, settings.solve);
   PushSequence(sequence, runtime.get());
-  times["update_latency"] = runtime->stats().update_latency_ms;
-  report.wall_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (report.frames > 1) {
-    report.seconds = 1e-9 * double(frame_times.back() - frame_times.front());
-  }
-  report.fps = report.wall_seconds > 0 ? double(report.frames) / report.wall_seconds : 0.0;
+  const std::vector<GroundTruthFrame>* truth = sequence.ground_truth();
+  CompleteReport(*runtime, std::move(log),
+                 truth && truth->size() == report.frames ? truth : nullptr, settings, start,
+                 &report);
+  return report;
+}
 
-  const CalibrationHistory& history = runtime->history();
-  report.final = history.Current(frame_times.empty() ? 0 : frame_times.back());
-  report.attempts = static_cast<int>(history.attempts().size());
-  for (const AttemptRecord& attempt : history.attempts()) {
-    ++report.verdicts[attempt.verdict];
-    if (attempt.verdict == Verdict::kAccepted || attempt.verdict == Verdict::kNewRegime) {
-      report.final_rms_px = attempt.rms_px;
+RunReport RunSource(FrameSource& source, const RunSettings& settings,
+                    const LiveRunControl& control) {
+  source.Start();  // A missing device is the news: before any file is made.
+  RunReport report;
+  report.input = source.Describe();
+  report.live.emplace();
+  LiveRunReport& live = *report.live;
+  try {
+    const SessionInfo session = source.session();
+    report.prior = StartingCalibration(report.input, session, settings);
+    AccelCalibration accel;
+    accel.cam_from_accel = session.cam_from_accel;
+    const std::unique_ptr<HistoryStore> store = OpenNewHistory(settings);
+
+    // A recording played in real time keeps its times: each processed frame's truth is the
+    // recorded frame at that time.
+    const Sequence* recorded = source.sequence();
+    const std::vector<GroundTruthFrame>* truth = recorded ? recorded->ground_truth() : nullptr;
+    std::map<int64_t, size_t> truth_index;
+    if (truth && truth->size() == recorded->frame_count()) {
+      for (size_t i = 0; i < recorded->frame_count(); ++i) {
+        truth_index[recorded->frame_time_ns(i)] = i;
+      }
     }
-    if (attempt.verdict == Verdict::kNoUpdate &&
-        std::find(report.no_update_reasons.begin(), report.no_update_reasons.end(),
-                  attempt.reason) == report.no_update_reasons.end()) {
-      report.no_update_reasons.push_back(attempt.reason);
+    std::vector<GroundTruthFrame> processed_truth;
+
+    FrameLog log;
+    const auto start = std::chrono::steady_clock::now();
+    RuntimeOptions runtime_options = settings.runtime;
+    runtime_options.accel_time_offset_s = settings.accel_time_offset_s;
+    runtime_options.live = source.live();
+    std::mutex latest_mutex;  // The newest snapshot, for progress on the caller's thread.
+    std::shared_ptr<const FrameSnapshot> latest;
+    // Declared after everything its frame callback touches, so destroyed (its threads
+    // stopped) first.
+    std::unique_ptr<Runtime> runtime;
+    const auto on_frame = [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+      log.Add(*snapshot);
+      if (const auto found = truth_index.find(snapshot->t_ns); found != truth_index.end()) {
+        processed_truth.push_back((*truth)[found->second]);
+      }
+      if (snapshot->attempt && store) store->Record(runtime->history());
+      std::lock_guard lock(latest_mutex);
+      latest = snapshot;
+    };
+    runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
+                                        on_frame, settings.solve);
+
+    using Clock = std::chrono::steady_clock;
+    const auto seconds = [](double s) {
+      return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+    };
+    const Clock::time_point end =
+        control.seconds > 0 ? start + seconds(control.seconds) : Clock::time_point::max();
+    Clock::time_point next_progress = start + seconds(control.progress_interval_s);
+    const auto report_progress = [&] {
+      if (!control.progress) return;
+      const SourceStats stats = source.stats();
+      std::shared_ptr<const FrameSnapshot> newest;
+      {
+        std::lock_guard lock(latest_mutex);
+        newest = latest;
+      }
+      RunProgress progress{size_t(runtime->stats().frames_done),
+                           size_t(live.frames_received),
+                           std::chrono::duration<double>(Clock::now() - start).count(),
+                           newest.get(),
+                           runtime->stats().frames_dropped + stats.frames_dropped,
+                           &stats};
+      control.progress(progress);
+    };
+    SourceItem item;
+    while (true) {
+      if (control.stop && control.stop->load()) {
+        live.ended_by = "a stop request";
+        break;
+      }
+      const Clock::time_point now = Clock::now();
+      if (now >= end) {
+        live.ended_by = "--seconds";
+        break;
+      }
+      if (now >= next_progress) {
+        report_progress();
+        next_progress = now + seconds(control.progress_interval_s);
+      }
+      const auto wait = std::min<Clock::duration>(std::chrono::milliseconds(100), end - now);
+      const FrameSource::Status status =
+          source.Next(&item, std::chrono::duration_cast<std::chrono::milliseconds>(wait));
+      if (status == FrameSource::Status::kEnd) {
+        live.ended_by = "the source ended";
+        break;
+      }
+      if (status == FrameSource::Status::kTimeout) continue;
+      switch (item.kind) {
+        case SourceItem::Kind::kFrame:
+          ++live.frames_received;
+          runtime->PushFrame(item.t_ns, item.image);  // Live: never waits.
+          break;
+        case SourceItem::Kind::kAccel:
+          runtime->PushAccel(std::span(&item.accel, 1));
+          break;
+        case SourceItem::Kind::kEvent:
+          live.events.push_back(item.event);
+          if (control.on_event) control.on_event(item.event);
+          break;
+      }
     }
-  }
-  report.alarms = history.alarms();
-  for (auto& [box, values] : times) {
-    if (!values.empty()) report.timing[box] = Stats(std::move(values));
-  }
-  if (const auto* truth = sequence.ground_truth(); truth && truth->size() == report.frames) {
-    report.truth = CompareWithTruth(frame_times, outputs, *truth, settings.convergence);
+    source.Stop();
+    runtime->Finish();
+    report_progress();
+
+    const SourceStats stats = source.stats();
+    live.pipeline_dropped = runtime->stats().frames_dropped;
+    live.source_dropped = stats.frames_dropped;
+    live.accel_dropped = stats.accel_dropped;
+    live.camera_rate_hz = stats.camera_rate_hz;
+    live.accel_rate_hz = stats.accel_rate_hz;
+    live.camera_gaps = stats.camera_gaps;
+    live.camera_disconnections = stats.camera_disconnections;
+    live.accel_disconnections = stats.accel_disconnections;
+    report.frames = log.t_ns.size();
+    CompleteReport(*runtime, std::move(log),
+                   processed_truth.size() == report.frames ? &processed_truth : nullptr, settings,
+                   start, &report);
+  } catch (...) {
+    source.Stop();
+    throw;
   }
   return report;
 }
@@ -207,8 +370,8 @@ std::string SummaryJson(const RunReport& report) {
   for (const auto& [box, stats] : report.timing) {
     json += std::string(first ? "\n" : ",\n") + "    " + JsonString(box) +
             ": {\"median\": " + JsonNumber(stats.median_ms) +
-            ", \"p95\": " + JsonNumber(stats.p95_ms) + ", \"count\": " +
-            std::to_string(stats.count) + "}";
+            ", \"p95\": " + JsonNumber(stats.p95_ms) +
+            ", \"count\": " + std::to_string(stats.count) + "}";
     first = false;
   }
   json += "\n  }";
@@ -219,6 +382,34 @@ std::string SummaryJson(const RunReport& report) {
             ", \"worst_after_convergence\": " +
             (truth.worst_after_convergence ? ErrorJson(*truth.worst_after_convergence) : "null") +
             "}";
+  }
+  if (report.live) {
+    const LiveRunReport& live = *report.live;
+    json +=
+        ",\n  \"live\": {\"frames_received\": " + std::to_string(live.frames_received) +
+        ", \"frames_dropped\": " + std::to_string(live.frames_dropped()) +
+        ", \"frames_dropped_by_pipeline\": " + std::to_string(live.pipeline_dropped) +
+        ", \"frames_dropped_by_source\": " + std::to_string(live.source_dropped) +
+        ", \"accel_dropped\": " + std::to_string(live.accel_dropped) +
+        ", \"camera_rate_hz\": " + JsonNumber(live.camera_rate_hz) +
+        ", \"accel_rate_hz\": " + JsonNumber(live.accel_rate_hz) +
+        ",\n    \"disconnections\": {\"camera\": " + std::to_string(live.camera_disconnections) +
+        ", \"accelerometer\": " + std::to_string(live.accel_disconnections) +
+        "}, \"camera_gaps\": [";
+    for (size_t i = 0; i < live.camera_gaps.size(); ++i) {
+      const TimeGap& gap = live.camera_gaps[i];
+      json += std::string(i ? ", " : "") +
+              "{\"start\": " + JsonNumber(1e-9 * double(gap.start_ns)) +
+              ", \"end\": " + JsonNumber(1e-9 * double(gap.end_ns)) +
+              ", \"seconds\": " + JsonNumber(gap.seconds()) + "}";
+    }
+    json += "],\n    \"events\": [";
+    for (size_t i = 0; i < live.events.size(); ++i) {
+      json += std::string(i ? ", " : "") +
+              "{\"t\": " + JsonNumber(1e-9 * double(live.events[i].t_ns)) +
+              ", \"event\": " + JsonString(FormatSourceEvent(live.events[i])) + "}";
+    }
+    json += "],\n    \"ended_by\": " + JsonString(live.ended_by) + "}";
   }
   json += "\n}\n";
   return json;

@@ -3,9 +3,11 @@
 // results that do not depend on thread timing, feeding the accelerometer ahead of the
 // frames, recording every calibration attempt in the history file, and measuring the
 // result against the ground truth where the sequence has it. `autocal run` and the
-// end-to-end tests use it.
+// end-to-end tests use it. RunSource does the same for a live source (a camera, or a
+// recording played in real time) in the runtime's live mode.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -15,6 +17,7 @@
 
 #include "devices/runtime.h"
 #include "devices/sequence.h"
+#include "devices/source.h"
 #include "pipeline/calibration_error.h"
 #include "pipeline/calibration_pipeline.h"
 
@@ -44,15 +47,31 @@ struct TimingStats {
 
 // The output against the truth, frame by frame and in summary.
 struct GroundTruthReport {
-  std::vector<int64_t> t_ns;                 // Each frame...
-  std::vector<CalibrationError> errors;      // ...the output's error after it.
-  CalibrationError final;                    // After the last frame.
-  std::optional<double> converged_at_s;      // From the first frame; never when absent.
+  std::vector<int64_t> t_ns;             // Each frame...
+  std::vector<CalibrationError> errors;  // ...the output's error after it.
+  CalibrationError final;                // After the last frame.
+  std::optional<double> converged_at_s;  // From the first frame; never when absent.
   std::optional<CalibrationError> worst_after_convergence;  // Largest magnitude per field.
 };
 
+// What a live run adds: what was lost on the way and what the devices did.
+struct LiveRunReport {
+  uint64_t frames_received = 0;   // Frames the source delivered.
+  uint64_t pipeline_dropped = 0;  // Never started: the pipeline was behind (runtime's queue).
+  uint64_t source_dropped = 0;    // Dropped in the source's own queue before delivery.
+  uint64_t accel_dropped = 0;     // Samples dropped in the source's queue.
+  double camera_rate_hz = 0.0;    // Measured by the source.
+  double accel_rate_hz = 0.0;
+  std::vector<TimeGap> camera_gaps;  // Unplug to re-plug.
+  int camera_disconnections = 0;
+  int accel_disconnections = 0;
+  std::vector<SourceEvent> events;  // Oldest first.
+  std::string ended_by;             // "the source ended", "--seconds", "a stop request".
+  uint64_t frames_dropped() const { return pipeline_dropped + source_dropped; }
+};
+
 struct RunReport {
-  std::string input;  // Sequence::Describe().
+  std::string input;  // Sequence::Describe() or FrameSource::Describe().
   size_t frames = 0;
   double seconds = 0.0;       // Span of the frame timestamps.
   double wall_seconds = 0.0;  // Processing time.
@@ -69,13 +88,17 @@ struct RunReport {
   // entering the runtime to the attempt's judgement in effect.
   std::map<std::string, TimingStats> timing;
   std::optional<GroundTruthReport> truth;
+  std::optional<LiveRunReport> live;  // RunSource only.
 };
 
 struct RunProgress {
-  size_t frame = 0;  // Frames done.
-  size_t frames = 0;
+  size_t frame = 0;   // Frames done.
+  size_t frames = 0;  // RunSequence: in the sequence; RunSource: received so far.
   double wall_seconds = 0.0;
-  const FrameSnapshot* snapshot = nullptr;  // The newest frame's.
+  const FrameSnapshot* snapshot = nullptr;  // The newest frame's (null before the first).
+  // RunSource: frames dropped so far (pipeline and source) and the source's counts.
+  uint64_t frames_dropped = 0;
+  const SourceStats* source = nullptr;
 };
 
 // Processes every frame of `sequence`. Throws Error on bad settings, unreadable frames or
@@ -83,8 +106,31 @@ struct RunProgress {
 RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
                       const std::function<void(const RunProgress&)>& progress = {});
 
+// How a live run is told to end and what it reports while it runs.
+struct LiveRunControl {
+  double seconds = 0.0;  // Wall-clock seconds from the start; 0: until the source ends or stop.
+  const std::atomic<bool>* stop = nullptr;  // May be null; set it from a signal handler.
+  double progress_interval_s = 1.0;
+  // Both on the caller's thread: progress every progress_interval_s, events as they come.
+  std::function<void(const RunProgress&)> progress;
+  std::function<void(const SourceEvent&)> on_event;
+};
+
+// Starts `source` (which throws Error saying what is missing and what was found) and runs
+// everything it delivers through boxes 1-10 on the runtime in live mode (settings.runtime's
+// `live` is set when the source is live) until the source ends, control.seconds pass or
+// *control.stop is set, then stops the source and finishes the frames already queued. The
+// history holds every attempt judged; report.live what was dropped and what the devices
+// did; report.truth, where the source plays a recording with ground truth, the error of
+// each processed frame. The prior is settings.prior or the source's pre-mission
+// calibration. Throws Error as RunSequence does.
+RunReport RunSource(FrameSource& source, const RunSettings& settings,
+                    const LiveRunControl& control = {});
+
 // DESIGN.md section 6: frames, seconds, fps, final, updates, alarms, timing_ms and, where
-// the truth is known, error. Throws Error naming the file when it cannot be written.
+// the truth is known, error; for a live run, `live` (frames received and dropped, camera
+// gaps, disconnections, device events, what ended it). Throws Error naming the file when it cannot
+// be written.
 std::string SummaryJson(const RunReport& report);
 void WriteSummary(const std::string& path, const RunReport& report);
 

@@ -4,12 +4,14 @@
 #include <atomic>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <condition_variable>
 #include <deque>
 #include <exception>
 #include <filesystem>
 #include <mutex>
 #include <thread>
+#include <utility>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -207,6 +209,120 @@ class SequenceSource : public FrameSource {
   SourceStats stats_;
 };
 
+// A recorded source played as a live one: a thread takes its items as they come due in
+// real time and queues them for the consumer, dropping the oldest frames (and samples)
+// beyond the queues' sizes when the consumer falls behind, as a camera's driver would.
+class PacedSource : public FrameSource {
+ public:
+  PacedSource(std::unique_ptr<SequenceSource> recorded, const SourceOptions& options)
+      : recorded_(std::move(recorded)),
+        speed_(options.real_time_speed),
+        queue_(options.frame_queue, options.accel_queue) {}
+  ~PacedSource() override { Stop(); }
+
+  std::string Describe() const override { return recorded_->Describe() + ", played in real time"; }
+  bool live() const override { return true; }
+  SessionInfo session() const override { return recorded_->session(); }
+  const Sequence* sequence() const override { return recorded_->sequence(); }
+
+  void Start() override {
+    std::lock_guard lock(mutex_);
+    if (started_) return;
+    started_ = true;
+    player_ = std::thread(&PacedSource::Play, this);
+  }
+
+  void Stop() override {
+    {
+      std::lock_guard lock(mutex_);
+      stopped_ = true;
+    }
+    stop_.notify_all();
+    if (player_.joinable()) player_.join();
+    recorded_->Stop();
+    queue_.Close();
+  }
+
+  Status Next(SourceItem* item, std::chrono::milliseconds timeout) override {
+    const Status status = queue_.Pop(item, timeout);
+    std::lock_guard lock(mutex_);
+    if (status == Status::kEnd && failure_)
+      std::rethrow_exception(std::exchange(failure_, nullptr));
+    if (status == Status::kItem)
+      ++(item->kind == SourceItem::Kind::kFrame ? delivered_frames_ : delivered_accel_);
+    return status;
+  }
+
+  SourceStats stats() const override {
+    std::lock_guard lock(mutex_);
+    SourceStats stats;
+    stats.frames = delivered_frames_;
+    stats.accel_samples = delivered_accel_;
+    stats.frames_dropped = queue_.frames_dropped();
+    stats.accel_dropped = queue_.accel_dropped();
+    const auto rate = [](const Arrivals& a) {
+      const double seconds = std::chrono::duration<double>(a.last - a.first).count();
+      return a.count > 1 && seconds > 0 ? double(a.count - 1) / seconds : 0.0;
+    };
+    stats.camera_rate_hz = rate(frames_in_);
+    stats.accel_rate_hz = rate(accel_in_);
+    return stats;
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  struct Arrivals {
+    uint64_t count = 0;
+    Clock::time_point first, last;
+    void Add(Clock::time_point now) {
+      if (count++ == 0) first = now;
+      last = now;
+    }
+  };
+
+  void Play() {
+    std::optional<int64_t> first_ns;
+    Clock::time_point start;
+    try {
+      SourceItem item;
+      while (true) {
+        const Status status = recorded_->Next(&item, std::chrono::milliseconds(100));
+        if (status == Status::kEnd) break;
+        std::unique_lock lock(mutex_);
+        if (stopped_) break;
+        if (status == Status::kTimeout) continue;
+        if (!first_ns) {
+          first_ns = item.t_ns;
+          start = Clock::now();
+        }
+        const Clock::time_point due =
+            start +
+            std::chrono::duration_cast<Clock::duration>(
+                std::chrono::duration<double, std::nano>(double(item.t_ns - *first_ns) / speed_));
+        if (stop_.wait_until(lock, due, [&] { return stopped_; })) break;
+        (item.kind == SourceItem::Kind::kFrame ? frames_in_ : accel_in_).Add(Clock::now());
+        lock.unlock();
+        queue_.Push(std::move(item));
+      }
+    } catch (...) {
+      std::lock_guard lock(mutex_);
+      failure_ = std::current_exception();
+    }
+    queue_.Close();
+  }
+
+  const std::unique_ptr<SequenceSource> recorded_;
+  const double speed_;
+  DroppingItemQueue queue_;
+  std::thread player_;
+  mutable std::mutex mutex_;  // The members below.
+  std::condition_variable stop_;
+  bool started_ = false, stopped_ = false;
+  std::exception_ptr failure_;     // From the recording, thrown by Next once the queue is empty.
+  Arrivals frames_in_, accel_in_;  // Queued, for the rates.
+  uint64_t delivered_frames_ = 0, delivered_accel_ = 0;
+};
+
 // A live camera with, optionally, a USB accelerometer on the same monotonic clock.
 class LiveSource : public FrameSource {
  public:
@@ -327,6 +443,8 @@ class LiveSource : public FrameSource {
     if (accelerometer_) {
       const UsbAccelerometerStats accel = accelerometer_->stats();
       stats.accel_dropped = accel.queue_dropped;
+      stats.accel_late_reports = accel.late_reports;
+      stats.accel_missing_reports = accel.missing_reports;
       stats.accel_disconnections = accel.disconnections;
       stats.accel_rate_hz = accel.rate_hz;
     }
@@ -526,6 +644,8 @@ bool SourceOptions::Check(std::string* error) const {
     *error = "reorder_window: must not be negative";
   } else if (read_ahead == 0) {
     *error = "read_ahead: at least 1";
+  } else if (!(real_time_speed > 0) || !std::isfinite(real_time_speed)) {
+    *error = "real_time_speed: must be positive";
   } else {
     return true;
   }
@@ -570,7 +690,93 @@ std::unique_ptr<FrameSource> OpenSource(const std::string& input, const std::str
     sequence = std::make_unique<AccelOverrideSequence>(
         std::move(sequence), std::vector<AccelSample>{}, "none", std::vector<std::string>{});
   }
-  return std::make_unique<SequenceSource>(std::move(sequence), options.read_ahead);
+  auto recorded = std::make_unique<SequenceSource>(std::move(sequence), options.read_ahead);
+  if (options.real_time) return std::make_unique<PacedSource>(std::move(recorded), options);
+  return recorded;
+}
+
+DroppingItemQueue::DroppingItemQueue(size_t frames, size_t samples)
+    : frame_capacity_(frames), accel_capacity_(samples) {}
+
+void DroppingItemQueue::Push(SourceItem item) {
+  {
+    std::lock_guard lock(mutex_);
+    if (closed_) return;
+    const SourceItem::Kind kind = item.kind;
+    if (kind != SourceItem::Kind::kEvent) {
+      const bool frame = kind == SourceItem::Kind::kFrame;
+      size_t& held = frame ? frames_ : samples_;
+      if (held == (frame ? frame_capacity_ : accel_capacity_)) {
+        items_.erase(std::find_if(items_.begin(), items_.end(),
+                                  [&](const SourceItem& queued) { return queued.kind == kind; }));
+        --held;
+        ++(frame ? frames_dropped_ : accel_dropped_);
+      }
+      ++held;
+    }
+    items_.push_back(std::move(item));
+  }
+  changed_.notify_all();
+}
+
+FrameSource::Status DroppingItemQueue::Pop(SourceItem* item, std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  if (!changed_.wait_for(lock, timeout, [&] { return !items_.empty() || closed_; })) {
+    return FrameSource::Status::kTimeout;
+  }
+  if (items_.empty()) return FrameSource::Status::kEnd;
+  *item = std::move(items_.front());
+  items_.pop_front();
+  if (item->kind == SourceItem::Kind::kFrame) --frames_;
+  if (item->kind == SourceItem::Kind::kAccel) --samples_;
+  return FrameSource::Status::kItem;
+}
+
+void DroppingItemQueue::Close() {
+  {
+    std::lock_guard lock(mutex_);
+    closed_ = true;
+  }
+  changed_.notify_all();
+}
+
+uint64_t DroppingItemQueue::frames_dropped() const {
+  std::lock_guard lock(mutex_);
+  return frames_dropped_;
+}
+
+uint64_t DroppingItemQueue::accel_dropped() const {
+  std::lock_guard lock(mutex_);
+  return accel_dropped_;
+}
+
+SourceBranch::SourceBranch(const FrameSource& trunk, size_t frame_queue, size_t accel_queue)
+    : trunk_(trunk), queue_(frame_queue, accel_queue) {}
+
+void SourceBranch::Feed(const SourceItem& item) {
+  if (started_) queue_.Push(item);  // Frames share their pixels: nothing is copied.
+}
+
+std::string SourceBranch::Describe() const { return trunk_.Describe(); }
+
+void SourceBranch::Start() { started_ = true; }
+
+void SourceBranch::Stop() {
+  started_ = false;
+  queue_.Close();
+}
+
+SessionInfo SourceBranch::session() const { return trunk_.session(); }
+
+FrameSource::Status SourceBranch::Next(SourceItem* item, std::chrono::milliseconds timeout) {
+  return queue_.Pop(item, timeout);
+}
+
+SourceStats SourceBranch::stats() const {
+  SourceStats stats = trunk_.stats();
+  stats.frames_dropped += queue_.frames_dropped();
+  stats.accel_dropped += queue_.accel_dropped();
+  return stats;
 }
 
 TimeOrderMerger::TimeOrderMerger(int64_t window_ns, bool expect_frames, bool expect_accel)

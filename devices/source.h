@@ -7,10 +7,13 @@
 // See docs/devices.md.
 #pragma once
 
+#include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -52,6 +55,10 @@ struct SourceStats {
   uint64_t accel_samples = 0;   // Samples delivered.
   uint64_t frames_dropped = 0;  // By full queues (live sources only).
   uint64_t accel_dropped = 0;
+  // USB accelerometer: samples after a gap over 1.5 median intervals, and the samples
+  // those gaps should have held (estimate).
+  uint64_t accel_late_reports = 0;
+  uint64_t accel_missing_reports = 0;
   // Items delivered after a later one had been delivered already (a live stream that
   // arrived later than the reordering window allows).
   uint64_t out_of_order = 0;
@@ -86,8 +93,62 @@ class FrameSource {
   virtual Status Next(SourceItem* item, std::chrono::milliseconds timeout) = 0;
   virtual SourceStats stats() const = 0;
   // The recorded sequence behind the source (for ground truth and random access); null
-  // for live sources.
+  // for a live camera.
   virtual const Sequence* sequence() const { return nullptr; }
+};
+
+// Items handed from one thread to a consumer on another, in the order given. Beyond
+// `frames` queued frames (or `samples` samples) the oldest of that kind is dropped and
+// counted, so that the thread pushing never waits. Thread-safe.
+class DroppingItemQueue {
+ public:
+  DroppingItemQueue(size_t frames, size_t samples);
+
+  // Events are never dropped. Ignored once closed.
+  void Push(SourceItem item);
+  // kItem with `item` filled, kTimeout, or kEnd once closed and empty.
+  FrameSource::Status Pop(SourceItem* item, std::chrono::milliseconds timeout);
+  void Close();
+  uint64_t frames_dropped() const;
+  uint64_t accel_dropped() const;
+
+ private:
+  const size_t frame_capacity_, accel_capacity_;
+  mutable std::mutex mutex_;  // The members below.
+  std::condition_variable changed_;
+  std::deque<SourceItem> items_;
+  size_t frames_ = 0, samples_ = 0;
+  uint64_t frames_dropped_ = 0, accel_dropped_ = 0;
+  bool closed_ = false;
+};
+
+// A second reader of a live source that one thread already reads (the workbench's live
+// session feeding the pipeline): that thread hands the branch every item it takes, and the
+// branch delivers them to its own consumer (Record() on another thread) as a live source
+// would, dropping the oldest frames beyond frame_queue when that consumer falls behind, so
+// the first reader is never held back. Items fed before Start or after Stop are ignored.
+class SourceBranch : public FrameSource {
+ public:
+  // `trunk` must outlive the branch; its session and stats are the branch's.
+  explicit SourceBranch(const FrameSource& trunk, size_t frame_queue = 8,
+                        size_t accel_queue = 8192);
+
+  // From the trunk's reader.
+  void Feed(const SourceItem& item);
+
+  std::string Describe() const override;
+  bool live() const override { return true; }
+  void Start() override;
+  void Stop() override;
+  SessionInfo session() const override;
+  Status Next(SourceItem* item, std::chrono::milliseconds timeout) override;
+  // The trunk's, with the frames and samples this branch dropped added.
+  SourceStats stats() const override;
+
+ private:
+  const FrameSource& trunk_;
+  DroppingItemQueue queue_;
+  std::atomic<bool> started_{false};
 };
 
 // Where accelerometer samples come from, parsed from a --accel value:
@@ -138,6 +199,16 @@ struct SourceOptions {
   std::chrono::milliseconds reorder_window{100};
   // Recorded: frames decoded (rendered, for the simulator) ahead of the consumer.
   size_t read_ahead = 4;
+  // Recorded: played as a live source (`autocal run --live`), paced in real time by its
+  // own timestamps: each item leaves no earlier than its time after the first, and what a
+  // slow consumer leaves beyond frame_queue / accel_queue is dropped (oldest first) and
+  // counted, as a camera's would be. Times stay the recording's, and sequence() still
+  // gives its ground truth. A source slower than real time (the simulator rendering a
+  // large image) delivers as fast as it can. Ignored for a live camera.
+  bool real_time = false;
+  // With real_time: the recording's seconds per wall-clock second (2: twice as fast, a
+  // stream at twice its frame rate).
+  double real_time_speed = 1.0;
 
   bool Check(std::string* error) const;
 };

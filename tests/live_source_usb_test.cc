@@ -3,8 +3,9 @@
 // tests/usb/emulated_usb.h) opened as one source with OpenSource("camera:...", "usb:...")
 // and recorded with Record(): samples decoded right and merged with the frames on one
 // clock, the accelerometer unplugged and plugged back mid-recording, events.csv and
-// session.json saying so. ctest runs this binary through umockdev-wrapper; without it the
-// test skips.
+// session.json saying so; and `autocal run`'s live path (RunSource) on the same devices.
+// ctest runs this binary through umockdev-wrapper; without it the tests skip.
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -13,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/videoio.hpp>
 
+#include "devices/offline_runner.h"
 #include "devices/recorder.h"
 #include "devices/session_io.h"
 #include "devices/source.h"
@@ -31,6 +33,15 @@ std::vector<std::string> ReadLines(const std::filesystem::path& path) {
   return lines;
 }
 
+// The "camera": a 30 frames/s MJPEG video of `frames` (its end is an unplug).
+bool WriteVideo(const std::string& path, const std::vector<cv::Mat>& frames) {
+  cv::VideoWriter writer(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
+                         30.0, frames.front().size());
+  if (!writer.isOpened()) return false;
+  for (const cv::Mat& frame : frames) writer.write(frame);
+  return true;
+}
+
 TEST(LiveSourceUsb, CameraAndUsbAccelerometerRecordedTogether) {
   if (!test::RunningUnderUmockdevWrapper())
     GTEST_SKIP() << "needs umockdev-wrapper (ctest runs it so)";
@@ -38,12 +49,9 @@ TEST(LiveSourceUsb, CameraAndUsbAccelerometerRecordedTogether) {
   const int first = bed.Plug(test::HidSensorHub());
   test::TempDir dir;
   const std::string video = dir / "camera.avi";
-  {
-    cv::VideoWriter writer(video, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
-                           30.0, cv::Size(64, 48));
-    ASSERT_TRUE(writer.isOpened());
-    for (int i = 0; i < 10; ++i) writer.write(cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(20 * i)));
-  }
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < 10; ++i) frames.emplace_back(48, 64, CV_8UC3, cv::Scalar::all(20 * i));
+  ASSERT_TRUE(WriteVideo(video, frames));
   SourceOptions options;
   options.frame_queue = 64;  // The file gives its frames in a burst.
   const std::unique_ptr<FrameSource> source =
@@ -123,6 +131,87 @@ TEST(LiveSourceUsb, CameraAndUsbAccelerometerRecordedTogether) {
   EXPECT_EQ(accel_connected, 2) << all.str();
   EXPECT_EQ(accel_lost, 1) << all.str();
   EXPECT_NE(all.str().find(",camera,connected,opened "), std::string::npos) << all.str();
+}
+
+// `autocal run --input camera:... --accel usb:1234:5678`: the run goes on across an
+// accelerometer unplugged and plugged back and across the camera's own "unplugs" (the
+// video file's end; it reopens), counts and reports both, and ends on --seconds.
+TEST(LiveSourceUsb, LiveRunGoesOnAcrossUnplugs) {
+  if (!test::RunningUnderUmockdevWrapper())
+    GTEST_SKIP() << "needs umockdev-wrapper (ctest runs it so)";
+  test::UsbTestbed bed;  // Before libusb_init, which the source's Start() calls.
+  const int first = bed.Plug(test::HidSensorHub());
+  test::TempDir dir;
+  const std::string video = dir / "camera.avi";
+  std::vector<cv::Mat> frames(10);
+  for (cv::Mat& frame : frames) {
+    frame.create(120, 160, CV_8UC3);
+    cv::randu(frame, cv::Scalar::all(0), cv::Scalar::all(255));
+  }
+  ASSERT_TRUE(WriteVideo(video, frames));
+  const std::unique_ptr<FrameSource> source = OpenSource("camera:" + video, "usb:1234:5678");
+  RunSettings settings;
+  CameraIntrinsics prior;
+  prior.width = 160;
+  prior.height = 120;
+  prior.fx = prior.fy = 120.0;
+  prior.cx = 79.5;
+  prior.cy = 59.5;
+  settings.prior = prior;
+  settings.history_path = dir / "history.sqlite";
+
+  std::atomic<bool> started{false};
+  std::string feeder_error;
+  std::thread feeder([&] {
+    while (!started) std::this_thread::sleep_for(1ms);
+    for (int i = 0; i < 40; ++i) {
+      if (!bed.SendReport(first, test::HidSensorAccelReport(0, 0, 100)))
+        feeder_error = "report " + std::to_string(i);
+      std::this_thread::sleep_for(5ms);
+    }
+    bed.Unplug(first);
+    std::this_thread::sleep_for(200ms);
+    const int second = bed.Plug(test::HidSensorHub());
+    for (int i = 0; i < 40; ++i) {
+      if (!bed.SendReport(second, test::HidSensorAccelReport(0, 0, 100)))
+        feeder_error = "report " + std::to_string(i);
+      std::this_thread::sleep_for(5ms);
+    }
+  });
+  LiveRunControl control;
+  control.seconds = 3.0;
+  control.progress_interval_s = 0.1;
+  std::vector<std::string> events;
+  control.on_event = [&](const SourceEvent& event) { events.push_back(FormatSourceEvent(event)); };
+  control.progress = [&](const RunProgress&) { started = true; };
+  const RunReport report = RunSource(*source, settings, control);
+  started = true;
+  feeder.join();
+  ASSERT_EQ(feeder_error, "");
+
+  ASSERT_TRUE(report.live);
+  const LiveRunReport& live = *report.live;
+  EXPECT_EQ(live.ended_by, "--seconds");
+  EXPECT_EQ(live.accel_disconnections, 1);
+  EXPECT_GE(live.camera_disconnections, 1) << "the file's end is an unplug";
+  EXPECT_FALSE(live.camera_gaps.empty());
+  EXPECT_GT(live.frames_received, 10u) << "the camera reopened after its unplug";
+  EXPECT_GT(report.frames, 0u);
+  // Every frame received was processed or dropped by the pipeline.
+  EXPECT_EQ(report.frames + live.pipeline_dropped, live.frames_received);
+  EXPECT_EQ(live.events.size(), events.size()) << "every event printed and reported";
+  int accel_connected = 0, accel_lost = 0;
+  for (const std::string& event : events) {
+    accel_connected += event.starts_with("accelerometer connected: ");
+    accel_lost += event.starts_with("accelerometer disconnected: ");
+  }
+  EXPECT_EQ(accel_connected, 2);
+  EXPECT_EQ(accel_lost, 1);
+  const std::string json = SummaryJson(report);
+  EXPECT_NE(json.find("\"disconnections\": {\"camera\": "), std::string::npos) << json;
+  EXPECT_NE(json.find("\"accelerometer\": 1}"), std::string::npos) << json;
+  EXPECT_NE(json.find("accelerometer disconnected: "), std::string::npos) << json;
+  EXPECT_TRUE(std::filesystem::exists(settings.history_path));
 }
 
 }  // namespace
