@@ -121,8 +121,9 @@ void VestCheck::Add(const FrameSnapshot& snapshot) {
   planes_now_ = int(planes.size());
   for (size_t a = 0; a < planes.size(); ++a) {
     if (!planes[a].normal) continue;
-    const auto [first, added] = first_normal_.emplace(planes[a].id, *planes[a].normal);
-    plane_angle_deg_ = std::max(plane_angle_deg_, AngleDeg(first->second, *planes[a].normal));
+    const Eigen::Vector3d& first = first_normal_.try_emplace(planes[a].id, *planes[a].normal)
+                                       .first->second;
+    plane_angle_deg_ = std::max(plane_angle_deg_, AngleDeg(first, *planes[a].normal));
     for (size_t b = a + 1; b < planes.size(); ++b) {
       if (planes[b].normal) {
         plane_angle_deg_ =

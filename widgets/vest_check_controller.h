@@ -53,10 +53,8 @@ class VestCheckController : public QObject {
   void cancel();
 
   VestCheckProgress progress() const;
-  bool running() const { return worker_.joinable() && !done_; }
   QString sourceDescription() const;
   QString deviceIds() const;
-  const VestCheckOptions& options() const { return options_; }
 
  signals:
   // The source opened: its description.

@@ -184,7 +184,9 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   table_->setEditTriggers(QAbstractItemView::NoEditTriggers);
   table_->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
   table_->horizontalHeader()->setStretchLastSection(true);
-  result_layout->addWidget(table_);
+  result_layout->addWidget(table_, 1);
+  // Takes the table's room when it is hidden (inconclusive), so the text stays on top.
+  result_layout->addStretch(0);
   auto* result_buttons = new QHBoxLayout;
   auto* again = new QPushButton(tr("Check Again"), result_page);
   connect(again, &QPushButton::clicked, this, &VestCheckDialog::BackToConnect);

@@ -7,12 +7,14 @@
 #include <QLineEdit>
 #include <QDoubleSpinBox>
 #include <QProgressBar>
+#include <QPushButton>
 #include <QListWidget>
 #include <QSignalSpy>
 #include <QTableWidget>
 #include <QPainter>
 #include <QTemporaryDir>
 #include <QTextDocument>
+#include <QTimeZone>
 #include <QtTest>
 
 #include "devices/sim/simulator.h"
@@ -157,9 +159,36 @@ class VestCheckTest : public QObject {
     SaveScreenshot(dialog, QStringLiteral("vest_check_fail.png"));
   }
 
+  // Finish Now after a second of walking: judged on what was seen, too little to judge.
+  void FinishNowJudgesWhatWasSeen() {
+    VestCheckDialog dialog(kVest);
+    dialog.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&dialog));
+    QSignalSpy finished(&dialog, &VestCheckDialog::checkFinished);
+    dialog.startCheck();
+    auto* progress = dialog.findChild<QProgressBar*>();
+    QTRY_VERIFY_WITH_TIMEOUT(progress->value() > 0, 60000);
+    QPushButton* finish_now = nullptr;
+    for (QPushButton* button : dialog.findChildren<QPushButton*>()) {
+      if (button->text() == QStringLiteral("Finish Now")) finish_now = button;
+    }
+    QVERIFY(finish_now);
+    QTest::mouseClick(finish_now, Qt::LeftButton);
+    QVERIFY(finished.wait(60000) || !finished.isEmpty());
+    QCOMPARE(dialog.result()->verdict, VestVerdict::kInconclusive);
+    QVERIFY(dialog.result()->seconds < 6.0);
+    QCOMPARE(dialog.findChild<QLabel*>(QStringLiteral("verdict"))->text(),
+             QStringLiteral("INCONCLUSIVE"));
+    const QString reasons = dialog.findChild<QLabel*>(QStringLiteral("reasons"))->text();
+    QVERIFY2(reasons.contains(QStringLiteral("calibration updates were accepted")),
+             qPrintable(reasons));
+    QVERIFY(dialog.findChild<QTableWidget*>()->isHidden());
+    SaveScreenshot(dialog, QStringLiteral("vest_check_inconclusive.png"));
+  }
+
   void ReportHoldsTheVerdictReasonsAndCoverage() {
     VestReport report;
-    report.when = QDateTime(QDate(2026, 11, 21), QTime(9, 30), Qt::UTC);
+    report.when = QDateTime(QDate(2026, 11, 21), QTime(9, 30), QTimeZone::utc());
     report.source = QStringLiteral("simulator");
     report.result.verdict = VestVerdict::kFail;
     report.result.reasons = {"fx is 3.62% below the pre-mission value (1.5% allowed)"};
