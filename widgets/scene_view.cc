@@ -13,11 +13,13 @@
 #include <vtkCellArray.h>
 #include <vtkConeSource.h>
 #include <vtkGenericOpenGLRenderWindow.h>
+#include <vtkInteractorStyleTrackballCamera.h>
 #include <vtkNew.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataMapper.h>
 #include <vtkProperty.h>
+#include <vtkRenderWindowInteractor.h>
 #include <vtkRenderer.h>
 #include <vtkSmartPointer.h>
 
@@ -105,6 +107,9 @@ SceneView::SceneView(QWidget* parent) : QWidget(parent), vtk_(std::make_unique<V
   vtk_->widget = new QVTKOpenGLNativeWidget(this);
   vtk_->widget->setRenderWindow(vtk_->window);
   vtk_->window->AddRenderer(vtk_->renderer);
+  // Left drag turns the scene about its centre, the wheel zooms, the middle button pans.
+  vtkNew<vtkInteractorStyleTrackballCamera> style;
+  vtk_->window->GetInteractor()->SetInteractorStyle(style);
   vtk_->renderer->SetBackground(0.96, 0.96, 0.96);
   layout->addWidget(vtk_->widget, 1);
   caption_ = new QLabel(this);
