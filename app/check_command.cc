@@ -23,9 +23,10 @@ constexpr int kExitInconclusive = 4;
 
 void PrintResult(const VestCheckResult& result) {
   std::printf("%s\n", VestVerdictName(result.verdict).c_str());
-  std::printf("%.1f s walked, %d frames; calibration updates: %d attempted, %d accepted in the "
-              "current regime\n",
-              result.seconds, result.frames, result.attempts, result.accepted_in_regime);
+  std::printf(
+      "%.1f s walked, %d frames; calibration updates: %d attempted, %d accepted in the "
+      "current regime\n",
+      result.seconds, result.frames, result.attempts, result.accepted_in_regime);
   if (!result.criteria.empty()) {
     std::printf("%-11s %12s %12s %11s %10s  %s\n", "parameter", "pre-mission", "measured",
                 "difference", "tolerance", "verdict");
@@ -43,8 +44,8 @@ void PrintResult(const VestCheckResult& result) {
   }
   for (const std::string& reason : result.reasons) std::printf("  %s\n", reason.c_str());
   for (const VestNeedStatus& s : result.coverage) {
-    std::printf("%-7s %s: %s%s\n", s.done ? "done" : "missing", s.name.c_str(),
-                s.measured.c_str(), s.required ? "" : " (helps, not needed)");
+    std::printf("%-7s %s: %s%s\n", s.done ? "done" : "missing", s.name.c_str(), s.measured.c_str(),
+                s.required ? "" : " (helps, not needed)");
   }
   for (const std::string& alarm : result.alarms) std::printf("alarm at %s\n", alarm.c_str());
 }
@@ -63,8 +64,7 @@ int Check(const QStringList& arguments) {
   parser.addOptions({
       {"input", "camera:N for the vest's camera, sim:SCENARIO, or a recording.", "source"},
       {"accel", "usb for the vest's USB accelerometer; default: the source's own.", "spec"},
-      {"prior",
-       "The pre-mission calibration (any format `autocal` writes); default: the source's.",
+      {"prior", "The pre-mission calibration (any format `autocal` writes); default: the source's.",
        "file"},
       {"seconds", "How long to walk.", "s", QString::number(defaults.duration_s)},
       {"focal-tolerance", "Largest difference of fx, fy that passes, percent.", "percent",

@@ -58,10 +58,9 @@ VestCheckResult RunVestCheck(const std::string& input, const std::string& accel,
   std::deque<std::pair<int64_t, cv::Mat>> held;
   std::optional<int64_t> accel_ns;
   const auto release = [&](bool all) {
-    while (!held.empty() &&
-           (all || !expect_accel || held.size() > kMaxHeld ||
-            (accel_ns && held.front().first + runtime.accel_lead_ns() <=
-                             *accel_ns + runtime.accel_offset_ns()))) {
+    while (!held.empty() && (all || !expect_accel || held.size() > kMaxHeld ||
+                             (accel_ns && held.front().first + runtime.accel_lead_ns() <=
+                                              *accel_ns + runtime.accel_offset_ns()))) {
       runtime.PushFrame(held.front().first, held.front().second);
       held.pop_front();
     }

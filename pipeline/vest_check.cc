@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 #include "pipeline/error.h"
 
@@ -21,7 +22,9 @@ double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
 }
 
-bool Founds(Verdict verdict) { return verdict == Verdict::kAccepted || verdict == Verdict::kNewRegime; }
+bool Founds(Verdict verdict) {
+  return verdict == Verdict::kAccepted || verdict == Verdict::kNewRegime;
+}
 
 // What box 10's "no update" or the history's rejection asks of the walk; nothing when the
 // reason names no motion (the solver failed, ...).
@@ -60,30 +63,36 @@ std::string GuidanceFor(VestNeed need, const VestCheckOptions& options, int plan
 }  // namespace
 
 bool VestCheckOptions::Check(std::string* error) const {
-  std::string why;
-  if (!(duration_s > 0)) why = "duration_s must be positive";
-  else if (min_accepted < 1) why = "min_accepted must be at least 1";
-  else if (min_rotate_s < 0 || min_translate_s < 0 || min_still_s < 0)
-    why = "min_rotate_s, min_translate_s and min_still_s must not be negative";
-  else if (!(min_plane_angle_deg >= 0 && min_plane_angle_deg < 90))
-    why = "min_plane_angle_deg must be in [0, 90)";
-  else if (min_line_shapes < 0) why = "min_line_shapes must not be negative";
-  else if (!(tolerance.focal_percent > 0 && tolerance.principal_px > 0 &&
-             tolerance.distortion_px > 0))
-    why = "tolerance (focal_percent, principal_px, distortion_px) must be positive";
-  else if (!(radius_fraction > 0 && radius_fraction <= 1))
-    why = "radius_fraction must be in (0, 1]";
-  else if (!(max_frame_gap_s > 0)) why = "max_frame_gap_s must be positive";
-  if (why.empty()) return true;
-  if (error) *error = why;
-  return false;
+  const std::pair<bool, const char*> rules[] = {
+      {duration_s > 0, "duration_s must be positive"},
+      {min_accepted >= 1, "min_accepted must be at least 1"},
+      {min_rotate_s >= 0 && min_translate_s >= 0 && min_still_s >= 0,
+       "min_rotate_s, min_translate_s and min_still_s must not be negative"},
+      {min_plane_angle_deg >= 0 && min_plane_angle_deg < 90,
+       "min_plane_angle_deg must be in [0, 90)"},
+      {min_line_shapes >= 0, "min_line_shapes must not be negative"},
+      {tolerance.focal_percent > 0 && tolerance.principal_px > 0 && tolerance.distortion_px > 0,
+       "tolerance (focal_percent, principal_px, distortion_px) must be positive"},
+      {radius_fraction > 0 && radius_fraction <= 1, "radius_fraction must be in (0, 1]"},
+      {max_frame_gap_s > 0, "max_frame_gap_s must be positive"},
+  };
+  for (const auto& [ok, message] : rules) {
+    if (!ok) {
+      if (error) *error = message;
+      return false;
+    }
+  }
+  return true;
 }
 
 std::string VestVerdictName(VestVerdict verdict) {
   switch (verdict) {
-    case VestVerdict::kPass: return "PASS";
-    case VestVerdict::kFail: return "FAIL";
-    case VestVerdict::kInconclusive: return "INCONCLUSIVE";
+    case VestVerdict::kPass:
+      return "PASS";
+    case VestVerdict::kFail:
+      return "FAIL";
+    case VestVerdict::kInconclusive:
+      return "INCONCLUSIVE";
   }
   return {};
 }
@@ -102,10 +111,15 @@ void VestCheck::Add(const FrameSnapshot& snapshot) {
     elapsed_s_ = 1e-9 * double(snapshot.t_ns - *first_ns_);
     if (dt > 0 && dt <= options_.max_frame_gap_s) {
       switch (snapshot.inertial.motion) {
-        case MotionClass::kRotate: rotate_s_ += dt; break;
+        case MotionClass::kRotate:
+          rotate_s_ += dt;
+          break;
         case MotionClass::kForward:
-        case MotionClass::kSidestep: translate_s_ += dt; break;
-        default: break;
+        case MotionClass::kSidestep:
+          translate_s_ += dt;
+          break;
+        default:
+          break;
       }
       if (snapshot.inertial.quasi_static) still_s_ += dt;
     }
@@ -121,8 +135,8 @@ void VestCheck::Add(const FrameSnapshot& snapshot) {
   planes_now_ = int(planes.size());
   for (size_t a = 0; a < planes.size(); ++a) {
     if (!planes[a].normal) continue;
-    const Eigen::Vector3d& first = first_normal_.try_emplace(planes[a].id, *planes[a].normal)
-                                       .first->second;
+    const Eigen::Vector3d& first =
+        first_normal_.try_emplace(planes[a].id, *planes[a].normal).first->second;
     plane_angle_deg_ = std::max(plane_angle_deg_, AngleDeg(first, *planes[a].normal));
     for (size_t b = a + 1; b < planes.size(); ++b) {
       if (planes[b].normal) {
@@ -155,22 +169,24 @@ VestNeedStatus VestCheck::Status(VestNeed need) const {
       status.name = "Planes from different angles";
       status.measured = Fixed(std::min(plane_angle_deg_, options_.min_plane_angle_deg), 0) +
                         " of " + Fixed(options_.min_plane_angle_deg, 0) + " deg";
-      status.fraction = options_.min_plane_angle_deg > 0
-                            ? plane_angle_deg_ / options_.min_plane_angle_deg
-                            : 1.0;
+      status.fraction =
+          options_.min_plane_angle_deg > 0 ? plane_angle_deg_ / options_.min_plane_angle_deg : 1.0;
       break;
-    case VestNeed::kStill: seconds("Holding still", still_s_, options_.min_still_s); break;
-    case VestNeed::kRotation: seconds("Turning", rotate_s_, options_.min_rotate_s); break;
+    case VestNeed::kStill:
+      seconds("Holding still", still_s_, options_.min_still_s);
+      break;
+    case VestNeed::kRotation:
+      seconds("Turning", rotate_s_, options_.min_rotate_s);
+      break;
     case VestNeed::kTranslation:
       seconds("Walking or stepping sideways", translate_s_, options_.min_translate_s);
       break;
     case VestNeed::kLines:
       status.name = "Straight edges";
-      status.measured = std::to_string(std::min(line_shapes_, options_.min_line_shapes)) +
-                        " of " + std::to_string(options_.min_line_shapes) + " shapes";
-      status.fraction = options_.min_line_shapes > 0
-                            ? double(line_shapes_) / options_.min_line_shapes
-                            : 1.0;
+      status.measured = std::to_string(std::min(line_shapes_, options_.min_line_shapes)) + " of " +
+                        std::to_string(options_.min_line_shapes) + " shapes";
+      status.fraction =
+          options_.min_line_shapes > 0 ? double(line_shapes_) / options_.min_line_shapes : 1.0;
       break;
     case VestNeed::kUpdates: {
       const int accepted = AcceptedInRegime();
@@ -216,8 +232,7 @@ std::string VestCheck::Guidance() const {
   const int accepted = AcceptedInRegime();
   // While updates are missing, what box 10 said of the newest attempt comes first: it is
   // what the walk lacked just now.
-  if (accepted < options_.min_accepted && !attempts_.empty() &&
-      !Founds(attempts_.back().verdict)) {
+  if (accepted < options_.min_accepted && !attempts_.empty() && !Founds(attempts_.back().verdict)) {
     if (attempts_.back().verdict == Verdict::kAlarm) {
       return "Keep walking: the calibration has moved, confirming";
     }
@@ -270,9 +285,8 @@ VestCheckResult VestCheck::Result() const {
                              " calibration updates were accepted");
   }
   // A jump raised after the last new regime and not confirmed: the lens may have moved.
-  const auto last_alarm = std::find_if(attempts_.rbegin(), attempts_.rend(), [](const auto& a) {
-    return a.verdict == Verdict::kAlarm;
-  });
+  const auto last_alarm = std::find_if(attempts_.rbegin(), attempts_.rend(),
+                                       [](const auto& a) { return a.verdict == Verdict::kAlarm; });
   const auto last_regime = std::find_if(attempts_.rbegin(), attempts_.rend(), [](const auto& a) {
     return a.verdict == Verdict::kNewRegime;
   });
@@ -295,8 +309,8 @@ VestCheckResult VestCheck::Result() const {
   const CameraIntrinsics& m = calibration_.calibration;
   const auto add = [&](const char* name, const char* unit, double before, double after,
                        double difference, double tolerance) {
-    VestCriterion c{name, unit, before, after, difference, tolerance,
-                    std::abs(difference) <= tolerance, {}};
+    VestCriterion c{
+        name, unit, before, after, difference, tolerance, std::abs(difference) <= tolerance, {}};
     if (!c.pass) {
       const std::string amount = Fixed(std::abs(difference), unit[0] == '%' ? 2 : 1) + unit;
       const std::string allowed = " (" + Fixed(tolerance, 1) + unit + " allowed)";
@@ -305,8 +319,7 @@ VestCheckResult VestCheck::Result() const {
                            " from where the pre-mission calibration puts them, out to " +
                            Fixed(100 * options_.radius_fraction, 0) + "% of the half-diagonal" +
                            allowed
-                     : c.parameter + " is " + amount +
-                           (difference > 0 ? " above" : " below") +
+                     : c.parameter + " is " + amount + (difference > 0 ? " above" : " below") +
                            " the pre-mission value" + allowed;
       result.reasons.push_back(c.reason);
     }

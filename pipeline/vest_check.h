@@ -54,8 +54,8 @@ inline constexpr int kNumVestNeeds = 6;
 
 struct VestNeedStatus {
   VestNeed need = VestNeed::kPlanes;
-  std::string name;      // "Turning", for the checklist.
-  std::string measured;  // "1.2 of 2.0 s".
+  std::string name;       // "Turning", for the checklist.
+  std::string measured;   // "1.2 of 2.0 s".
   double fraction = 0.0;  // 0-1.
   bool done = false;
   bool required = true;  // Missing it makes the verdict inconclusive.
@@ -68,8 +68,8 @@ std::string VestVerdictName(VestVerdict verdict);
 // One compared parameter. Focal lengths in percent of the pre-mission value; the principal
 // point and the distortion in pixels.
 struct VestCriterion {
-  std::string parameter;  // "fx", "fy", "cx", "cy", "distortion".
-  std::string unit;       // "%" or "px".
+  std::string parameter;    // "fx", "fy", "cx", "cy", "distortion".
+  std::string unit;         // "%" or "px".
   double premission = 0.0;  // The parameter's values (none for the distortion: 0).
   double measured = 0.0;
   double difference = 0.0;  // Signed, in `unit` (distortion: the displacement, >= 0).
@@ -133,7 +133,7 @@ class VestCheck {
   int line_shapes_ = 0;
   int planes_now_ = 0;
   std::map<int, Eigen::Vector3d> first_normal_;  // Per plane id: its normal when first known.
-  std::vector<AttemptRecord> attempts_;  // Judged so far, in order.
+  std::vector<AttemptRecord> attempts_;          // Judged so far, in order.
   FilteredCalibration calibration_;
 };
 

@@ -12,8 +12,8 @@
 
 #include <gtest/gtest.h>
 
-#include "devices/vest_check_run.h"
 #include "devices/sim/simulator.h"
+#include "devices/vest_check_run.h"
 #include "pipeline/error.h"
 #include "pipeline/vest_check.h"
 

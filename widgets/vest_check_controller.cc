@@ -84,8 +84,8 @@ void VestCheckController::Run() {
       std::lock_guard lock(mutex_);
       frame_ = frame;  // Shared, not copied: the source hands out a new matrix per frame.
     };
-    result = RunVestCheck(input_.toStdString(), accel_.toStdString(), premission_, options_,
-                          stop_, hooks);
+    result = RunVestCheck(input_.toStdString(), accel_.toStdString(), premission_, options_, stop_,
+                          hooks);
   } catch (const std::exception& e) {
     error = e.what();
   }

@@ -76,8 +76,9 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   connect_layout->addWidget(intro);
   auto* form = new QFormLayout;
   input_ = new QLineEdit(input, connect_page);
-  input_->setToolTip(tr("camera:0 for the vest's camera, sim:office for the simulated vest, "
-                        "or a recording folder"));
+  input_->setToolTip(
+      tr("camera:0 for the vest's camera, sim:office for the simulated vest, "
+         "or a recording folder"));
   accel_ = new QLineEdit(accel, connect_page);
   accel_->setPlaceholderText(tr("the source's own"));
   accel_->setToolTip(tr("usb for the vest's USB accelerometer; empty: the source's own"));
@@ -192,11 +193,11 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   connect(again, &QPushButton::clicked, this, &VestCheckDialog::BackToConnect);
   auto* save = new QPushButton(tr("Save Report…"), result_page);
   connect(save, &QPushButton::clicked, this, [this] {
-    const QString name = QStringLiteral("vest-check-%1.pdf")
-                             .arg(QDateTime::currentDateTime().toString(
-                                 QStringLiteral("yyyyMMdd-HHmm")));
-    const QString path = QFileDialog::getSaveFileName(this, tr("Save Report"), name,
-                                                      tr("PDF (*.pdf)"));
+    const QString name =
+        QStringLiteral("vest-check-%1.pdf")
+            .arg(QDateTime::currentDateTime().toString(QStringLiteral("yyyyMMdd-HHmm")));
+    const QString path =
+        QFileDialog::getSaveFileName(this, tr("Save Report"), name, tr("PDF (*.pdf)"));
     if (!path.isEmpty()) saveReport(path);
   });
   auto* close = new QPushButton(tr("Close"), result_page);
@@ -230,18 +231,16 @@ void VestCheckDialog::startCheck() {
   options.tolerance.principal_px = principal_tol_->value();
   options.tolerance.distortion_px = distortion_tol_->value();
   options_ = options;
-  controller_ = std::make_unique<VestCheckController>(input_->text(), accel_->text(),
-                                                      premission, options);
+  controller_ =
+      std::make_unique<VestCheckController>(input_->text(), accel_->text(), premission, options);
   connect(controller_.get(), &VestCheckController::connected, this,
           [this](const QString& description) {
             source_label_->setText(tr("Source: %1").arg(description));
           });
   connect(controller_.get(), &VestCheckController::progressed, this,
           &VestCheckDialog::ShowProgress);
-  connect(controller_.get(), &VestCheckController::finished, this,
-          &VestCheckDialog::ShowResult);
-  connect(controller_.get(), &VestCheckController::failed, this,
-          &VestCheckDialog::ShowFailure);
+  connect(controller_.get(), &VestCheckController::finished, this, &VestCheckDialog::ShowResult);
+  connect(controller_.get(), &VestCheckController::failed, this, &VestCheckDialog::ShowFailure);
   result_.reset();
   source_label_->setText(tr("Connecting to %1…").arg(input_->text()));
   checklist_->clear();
@@ -269,7 +268,7 @@ void VestCheckDialog::ShowProgress() {
                       .arg(s.done ? QStringLiteral("✔") : QStringLiteral("✘"),
                            QString::fromStdString(s.name), QString::fromStdString(s.measured),
                            s.required ? QString() : tr(" (helps, not needed)")));
-    item->setForeground(s.done        ? QColor(0x1b, 0x7f, 0x2a)
+    item->setForeground(s.done       ? QColor(0x1b, 0x7f, 0x2a)
                         : s.required ? QColor(0xb0, 0x00, 0x20)
                                      : QColor(0x70, 0x70, 0x70));
   }
@@ -305,11 +304,12 @@ void VestCheckDialog::ShowResult(const VestCheckResult& result) {
   const std::vector<VestReportRow> rows = VestReportRows(result);
   table_->setRowCount(int(rows.size()));
   for (size_t r = 0; r < rows.size(); ++r) {
-    const QStringList cells = {rows[r].parameter, rows[r].premission, rows[r].measured,
-                               rows[r].difference, rows[r].tolerance, rows[r].verdict};
+    const QStringList cells = {rows[r].parameter,  rows[r].premission, rows[r].measured,
+                               rows[r].difference, rows[r].tolerance,  rows[r].verdict};
     for (int c = 0; c < cells.size(); ++c) {
       auto* item = new QTableWidgetItem(cells[c]);
-      if (c == 5) item->setForeground(rows[r].pass ? QColor(0x1b, 0x7f, 0x2a) : QColor(0xb0, 0x00, 0x20));
+      if (c == 5)
+        item->setForeground(rows[r].pass ? QColor(0x1b, 0x7f, 0x2a) : QColor(0xb0, 0x00, 0x20));
       table_->setItem(int(r), c, item);
     }
   }

@@ -27,13 +27,14 @@ QString VerdictColour(VestVerdict verdict) {
 }
 
 QString CalibrationRow(const QString& name, const CameraIntrinsics& c) {
-  return QStringLiteral("<tr><td>%1</td><td>%2x%3</td><td>%4</td><td>%5</td><td>%6</td>"
-                        "<td>%7</td><td>%8</td><td>%9</td><td>%10</td><td>%11</td><td>%12</td></tr>")
+  return QStringLiteral(
+             "<tr><td>%1</td><td>%2x%3</td><td>%4</td><td>%5</td><td>%6</td>"
+             "<td>%7</td><td>%8</td><td>%9</td><td>%10</td><td>%11</td><td>%12</td></tr>")
       .arg(name)
       .arg(c.width)
       .arg(c.height)
-      .arg(Number(c.fx, 2), Number(c.fy, 2), Number(c.cx, 2), Number(c.cy, 2),
-           Number(c.k1, 5), Number(c.k2, 5), Number(c.p1, 6), Number(c.p2, 6))
+      .arg(Number(c.fx, 2), Number(c.fy, 2), Number(c.cx, 2), Number(c.cy, 2), Number(c.k1, 5),
+           Number(c.k2, 5), Number(c.p1, 6), Number(c.p2, 6))
       .arg(Number(c.k3, 5));
 }
 
@@ -71,11 +72,13 @@ QString VestVerdictAdvice(VestVerdict verdict) {
     case VestVerdict::kPass:
       return QStringLiteral("The camera matches its pre-mission calibration.");
     case VestVerdict::kFail:
-      return QStringLiteral("The camera no longer matches its pre-mission calibration: have "
-                            "the vest recalibrated (the measured calibration is below).");
+      return QStringLiteral(
+          "The camera no longer matches its pre-mission calibration: have "
+          "the vest recalibrated (the measured calibration is below).");
     case VestVerdict::kInconclusive:
-      return QStringLiteral("Not enough was seen to judge: check again, following the "
-                            "guidance on the screen.");
+      return QStringLiteral(
+          "Not enough was seen to judge: check again, following the "
+          "guidance on the screen.");
   }
   return {};
 }
@@ -103,27 +106,30 @@ QString VestReportHtml(const VestReport& report) {
               .arg(VerdictColour(r.verdict), QString::fromStdString(VestVerdictName(r.verdict)));
   html += QStringLiteral("<p><b>%1</b></p>").arg(VestVerdictAdvice(r.verdict).toHtmlEscaped());
   if (r.reasons.empty()) {
-    html += QStringLiteral("<p>Every parameter is within its tolerance of the pre-mission "
-                           "calibration.</p>");
+    html += QStringLiteral(
+        "<p>Every parameter is within its tolerance of the pre-mission "
+        "calibration.</p>");
   } else {
     html += QStringLiteral("<ul>");
-    for (const std::string& reason : r.reasons) html += QStringLiteral("<li>%1</li>").arg(Escaped(reason));
+    for (const std::string& reason : r.reasons)
+      html += QStringLiteral("<li>%1</li>").arg(Escaped(reason));
     html += QStringLiteral("</ul>");
   }
 
   const std::vector<VestReportRow> rows = VestReportRows(r);
   if (!rows.empty()) {
-    html += QStringLiteral("<h2>Parameters</h2><table border=\"1\" cellspacing=\"0\" "
-                           "cellpadding=\"4\"><tr><th>Parameter</th><th>Pre-mission</th>"
-                           "<th>Measured</th><th>Difference</th><th>Tolerance</th>"
-                           "<th>Verdict</th></tr>");
+    html += QStringLiteral(
+        "<h2>Parameters</h2><table border=\"1\" cellspacing=\"0\" "
+        "cellpadding=\"4\"><tr><th>Parameter</th><th>Pre-mission</th>"
+        "<th>Measured</th><th>Difference</th><th>Tolerance</th>"
+        "<th>Verdict</th></tr>");
     for (const VestReportRow& row : rows) {
-      html += QStringLiteral("<tr><td>%1</td><td>%2</td><td>%3</td><td>%4</td><td>%5</td>"
-                             "<td style=\"color: %6;\"><b>%7</b></td></tr>")
-                  .arg(row.parameter, row.premission, row.measured, row.difference,
-                       row.tolerance,
-                       VerdictColour(row.pass ? VestVerdict::kPass : VestVerdict::kFail),
-                       row.verdict);
+      html +=
+          QStringLiteral(
+              "<tr><td>%1</td><td>%2</td><td>%3</td><td>%4</td><td>%5</td>"
+              "<td style=\"color: %6;\"><b>%7</b></td></tr>")
+              .arg(row.parameter, row.premission, row.measured, row.difference, row.tolerance,
+                   VerdictColour(row.pass ? VestVerdict::kPass : VestVerdict::kFail), row.verdict);
     }
     html += QStringLiteral("</table>");
   }
@@ -132,24 +138,28 @@ QString VestReportHtml(const VestReport& report) {
   html += QStringLiteral("<li>fx, fy within %1% of the pre-mission value</li>")
               .arg(Number(o.tolerance.focal_percent, 2));
   html += QStringLiteral("<li>cx, cy within %1 px</li>").arg(Number(o.tolerance.principal_px, 1));
-  html += QStringLiteral("<li>distortion: the two lenses put the same ray within %1 px of each "
-                         "other, out to %2% of the image half-diagonal</li>")
+  html += QStringLiteral(
+              "<li>distortion: the two lenses put the same ray within %1 px of each "
+              "other, out to %2% of the image half-diagonal</li>")
               .arg(Number(o.tolerance.distortion_px, 1), Number(100 * o.radius_fraction, 0));
-  html += QStringLiteral("<li>a verdict needs %1 calibration updates accepted in the "
-                         "calibration's current regime, and no unconfirmed jump</li></ul>")
+  html += QStringLiteral(
+              "<li>a verdict needs %1 calibration updates accepted in the "
+              "calibration's current regime, and no unconfirmed jump</li></ul>")
               .arg(o.min_accepted);
 
-  html += QStringLiteral("<h2>Calibrations</h2><table border=\"1\" cellspacing=\"0\" "
-                         "cellpadding=\"3\"><tr><th></th><th>size</th><th>fx</th><th>fy</th>"
-                         "<th>cx</th><th>cy</th><th>k1</th><th>k2</th><th>p1</th><th>p2</th>"
-                         "<th>k3</th></tr>");
+  html += QStringLiteral(
+      "<h2>Calibrations</h2><table border=\"1\" cellspacing=\"0\" "
+      "cellpadding=\"3\"><tr><th></th><th>size</th><th>fx</th><th>fy</th>"
+      "<th>cx</th><th>cy</th><th>k1</th><th>k2</th><th>p1</th><th>p2</th>"
+      "<th>k3</th></tr>");
   html += CalibrationRow(QStringLiteral("pre-mission"), r.premission);
   html += CalibrationRow(QStringLiteral("measured"), r.measured);
   html += QStringLiteral("</table>");
 
-  html += QStringLiteral("<h2>Motion covered</h2><table border=\"1\" cellspacing=\"0\" "
-                         "cellpadding=\"3\"><tr><th>What the calibration needs</th>"
-                         "<th>Covered</th><th></th></tr>");
+  html += QStringLiteral(
+      "<h2>Motion covered</h2><table border=\"1\" cellspacing=\"0\" "
+      "cellpadding=\"3\"><tr><th>What the calibration needs</th>"
+      "<th>Covered</th><th></th></tr>");
   for (const VestNeedStatus& s : r.coverage) {
     html += QStringLiteral("<tr><td>%1</td><td>%2</td><td>%3</td></tr>")
                 .arg(Escaped(s.name), Escaped(s.measured),
@@ -164,7 +174,8 @@ QString VestReportHtml(const VestReport& report) {
     html += QStringLiteral(" %1 %2;").arg(count).arg(Escaped(VerdictName(verdict)));
   }
   html += QStringLiteral(" %1 accepted in the current regime.</p>").arg(r.accepted_in_regime);
-  for (const std::string& alarm : r.alarms) html += QStringLiteral("<p>Alarm at %1</p>").arg(Escaped(alarm));
+  for (const std::string& alarm : r.alarms)
+    html += QStringLiteral("<p>Alarm at %1</p>").arg(Escaped(alarm));
   html += QStringLiteral("</body></html>");
   return html;
 }

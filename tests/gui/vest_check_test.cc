@@ -2,16 +2,16 @@
 // its verdict, the walk and result pages saved as screenshots, the verdict shown checked
 // against the check's own, and the PDF report written and checked.
 #include <QDir>
+#include <QDoubleSpinBox>
 #include <QFile>
 #include <QLabel>
 #include <QLineEdit>
-#include <QDoubleSpinBox>
+#include <QListWidget>
+#include <QPainter>
 #include <QProgressBar>
 #include <QPushButton>
-#include <QListWidget>
 #include <QSignalSpy>
 #include <QTableWidget>
-#include <QPainter>
 #include <QTemporaryDir>
 #include <QTextDocument>
 #include <QTimeZone>
@@ -193,15 +193,17 @@ class VestCheckTest : public QObject {
     report.result.verdict = VestVerdict::kFail;
     report.result.reasons = {"fx is 3.62% below the pre-mission value (1.5% allowed)"};
     report.result.criteria = {{"fx", "%", 214.85, 207.06, -3.62, 1.5, false, "fx is 3.62% below"}};
-    report.result.coverage = {{VestNeed::kRotation, "Turning", "0.5 of 2.0 s", 0.25, false, true},
-                              {VestNeed::kStill, "Holding still", "0.0 of 2.0 s", 0.0, false, false}};
+    report.result.coverage = {
+        {VestNeed::kRotation, "Turning", "0.5 of 2.0 s", 0.25, false, true},
+        {VestNeed::kStill, "Holding still", "0.0 of 2.0 s", 0.0, false, false}};
     const QString html = VestReportHtml(report);
     QVERIFY(html.contains(QStringLiteral("Verdict: FAIL")));
     QVERIFY(html.contains(QStringLiteral("have the vest recalibrated")));
     QVERIFY(html.contains(QStringLiteral("fx is 3.62% below the pre-mission value")));
     QVERIFY(html.contains(QStringLiteral("-3.62 %")));
     QVERIFY(html.contains(QStringLiteral("Turning</td><td>0.5 of 2.0 s</td><td>missing")));
-    QVERIFY(html.contains(QStringLiteral("Holding still</td><td>0.0 of 2.0 s</td><td>not covered")));
+    QVERIFY(
+        html.contains(QStringLiteral("Holding still</td><td>0.0 of 2.0 s</td><td>not covered")));
     QVERIFY(html.contains(QStringLiteral("2026-11-21 09:30:00 UTC")));
     QVERIFY(html.contains(QStringLiteral("autocal ")));
   }
