@@ -70,6 +70,49 @@ TEST(VestCheck, DefaultOptionsAreValid) {
   EXPECT_THROW(VestCheck(CameraIntrinsics{}, {}), Error);
 }
 
+// A frame at `t_s` that judged an attempt with this verdict and reason in `regime`.
+FrameSnapshot Judged(double t_s, Verdict verdict, const std::string& reason, int regime = 1) {
+  FrameSnapshot snapshot;
+  snapshot.t_ns = int64_t(t_s * 1e9);
+  auto outcome = std::make_shared<AttemptOutcome>();
+  outcome->record.t_ns = snapshot.t_ns;
+  outcome->record.verdict = verdict;
+  outcome->record.reason = reason;
+  outcome->record.regime = regime;
+  snapshot.attempt = outcome;
+  snapshot.calibration.regime = regime;
+  return snapshot;
+}
+
+// What box 10 and the history said of the newest attempt decides the guidance while
+// updates are missing; an alarm not yet confirmed leaves the verdict open.
+TEST(VestCheck, GuidanceFollowsWhatTheHistorySaid) {
+  const CameraIntrinsics premission = CameraIntrinsics::FromFieldOfView(320, 240, 75);
+  VestCheck check(premission);
+  EXPECT_EQ(check.Guidance(), "Stand facing a textured wall and hold still");
+  check.Add(Judged(0.5, Verdict::kNoUpdate,
+                   "no update: insufficient rotation (3.10 deg between views, 8.00 needed)"));
+  EXPECT_EQ(check.Guidance(), "Turn slowly left and right");
+  check.Add(Judged(1.0, Verdict::kNoUpdate,
+                   "no update: focal length not observable (sigma 4.08%, 1.00% allowed)"));
+  EXPECT_EQ(check.Guidance(), "Walk slowly, facing a textured wall or the floor");
+  check.Add(Judged(1.5, Verdict::kRejected, "rejected: rms 1.4 px"));
+  EXPECT_EQ(check.Guidance(), "Move more slowly");
+  for (double t : {2.0, 2.5, 3.0}) check.Add(Judged(t, Verdict::kAccepted, "accepted"));
+  check.Add(Judged(3.5, Verdict::kAlarm, "alarm: jump in fx -8.28 px"));
+  VestCheckResult result = check.Result();
+  EXPECT_EQ(result.verdict, VestVerdict::kInconclusive);
+  EXPECT_EQ(result.reasons.front(), "a jump in the calibration was raised and not yet confirmed");
+  ASSERT_EQ(result.alarms.size(), 1u);
+  EXPECT_EQ(result.alarms.front(), "3.0 s: jump in fx -8.28 px");
+  // Confirmed: a new regime, whose updates start again from its founder.
+  check.Add(Judged(4.0, Verdict::kNewRegime, "new regime", 2));
+  EXPECT_EQ(check.Coverage()[int(VestNeed::kUpdates)].measured, "1 of 3");
+  result = check.Result();
+  EXPECT_EQ(result.accepted_in_regime, 1);
+  EXPECT_EQ(result.reasons.front(), "only 1 of 3 calibration updates were accepted");
+}
+
 TEST(VestCheck, WalkWithThePremissionLensPasses) {
   const CheckRun run = RunCheck(kWalk, std::nullopt);
   EXPECT_EQ(run.result.verdict, VestVerdict::kPass);
