@@ -6,7 +6,6 @@
 #include <memory>
 
 #include <QAction>
-#include <QDir>
 #include <QFile>
 #include <QLabel>
 #include <QSignalSpy>
@@ -18,18 +17,13 @@
 #include "pipeline/option_fields.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
+#include "screenshot.h"
 
 namespace autocal {
 namespace {
 
 constexpr int kOpenTimeoutMs = 30000;
 constexpr char kWalk[] = "office,lens=tessar,resolution=320x240,seconds=4";
-
-QString ScreenshotPath(const QString& name) {
-  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QDir().mkpath(dir);
-  return QDir(dir).filePath(name);
-}
 
 bool ColorNear(const QImage& image, QPoint at, const QColor& color, int radius) {
   for (int dy = -radius; dy <= radius; ++dy) {

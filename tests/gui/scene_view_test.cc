@@ -7,22 +7,16 @@
 #include <vector>
 
 #include <QApplication>
-#include <QDir>
 #include <QImage>
 #include <QtTest>
 
 #include "devices/runtime.h"
 #include "devices/sim/simulator.h"
 #include "widgets/scene_view.h"
+#include "screenshot.h"
 
 namespace autocal {
 namespace {
-
-QString ScreenshotPath(const QString& name) {
-  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QDir().mkpath(dir);
-  return QDir(dir).filePath(name);
-}
 
 bool Near(const QColor& a, const QColor& b, int tolerance) {
   return std::abs(a.red() - b.red()) <= tolerance && std::abs(a.green() - b.green()) <= tolerance &&

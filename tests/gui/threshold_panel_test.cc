@@ -3,7 +3,6 @@
 // marks and resets, the search filter, settings files (read back by ReadPipelineSettings,
 // the reader `autocal run --settings` uses) and named presets.
 #include <QCheckBox>
-#include <QDir>
 #include <QDoubleSpinBox>
 #include <QFile>
 #include <QLineEdit>
@@ -14,18 +13,9 @@
 
 #include "pipeline/option_fields.h"
 #include "widgets/threshold_panel.h"
+#include "screenshot.h"
 
 namespace autocal {
-namespace {
-
-QString ScreenshotPath(const QString& name) {
-  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QDir().mkpath(dir);
-  return QDir(dir).filePath(name);
-}
-
-}  // namespace
-
 class ThresholdPanelTest : public QObject {
   Q_OBJECT
 
