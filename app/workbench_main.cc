@@ -93,6 +93,7 @@ int main(int argc, char** argv) {
   }
 
   autocal::SceneView::SetDefaultSurfaceFormat();  // VTK's 3-D view, before the QApplication.
+  autocal::SceneView::SetDefaultSurfaceFormat();  // The 3-D view's OpenGL, before the app.
   QApplication app(argc, argv);
   QCommandLineParser parser;
   const Options options = Configure(&parser);

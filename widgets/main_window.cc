@@ -45,7 +45,10 @@
 #include "widgets/history_table.h"
 #include "widgets/pipeline_controller.h"
 #include "widgets/playback_controller.h"
+#include "widgets/scene_view.h"
 #include "widgets/sequence_opener.h"
+#include "widgets/threshold_panel.h"
+#include "widgets/vest_check_dialog.h"
 #include "widgets/video_view.h"
 
 namespace autocal {
@@ -105,6 +108,7 @@ MainWindow::MainWindow(QWidget* parent)
   createCentralArea();
   createDocks();
   createOverlayControls();
+  createPipelineDocks();
   createStatusBar();
   connectControllers();
   restoreSettings();
@@ -213,7 +217,8 @@ void MainWindow::createCentralArea() {
 
 void MainWindow::createDocks() {
   plot_ = new AccelPlot;
-  auto* plot_dock = new QDockWidget(tr("Accelerometer"), this);
+  plot_dock_ = new QDockWidget(tr("Accelerometer"), this);
+  QDockWidget* plot_dock = plot_dock_;
   plot_dock->setObjectName(QStringLiteral("accelerometer_dock"));
   plot_dock->setWidget(plot_);
   addDockWidget(Qt::BottomDockWidgetArea, plot_dock);
@@ -300,10 +305,46 @@ void MainWindow::createOverlayControls() {
   connect(view_mode_group_, &QActionGroup::triggered, this, &MainWindow::onViewModeChosen);
   view_menu_->addAction(toolbar->toggleViewAction());
 
-  QMenu* help = menuBar()->addMenu(tr("&Help"));
-  help->addAction(tr("&About"), this, &MainWindow::showAbout);
   onLayersToggled();
   onViewModeChosen(view_mode_group_->checkedAction());
+}
+
+void MainWindow::createPipelineDocks() {
+  threshold_panel_ = new ThresholdPanel;
+  threshold_panel_->setOptions(pipeline_->options());
+  auto* threshold_dock = new QDockWidget(tr("Thresholds"), this);
+  threshold_dock->setObjectName(QStringLiteral("threshold_dock"));
+  threshold_dock->setWidget(threshold_panel_);
+  addDockWidget(Qt::RightDockWidgetArea, threshold_dock);
+  threshold_dock->hide();  // For engineers tuning: View › Thresholds.
+  connect(threshold_panel_, &ThresholdPanel::optionsChanged, pipeline_,
+          &PipelineController::setOptions);
+  connect(pipeline_, &PipelineController::optionsRefused, threshold_panel_,
+          &ThresholdPanel::showError);
+
+  scene_view_ = new SceneView;
+  auto* scene_dock = new QDockWidget(tr("3-D View"), this);
+  scene_dock->setObjectName(QStringLiteral("scene_dock"));
+  scene_dock->setWidget(scene_view_);
+  addDockWidget(Qt::BottomDockWidgetArea, scene_dock);
+  tabifyDockWidget(calibration_dock_, scene_dock);
+  plot_dock_->raise();  // Tabifying brought the new tab to the front.
+  connect(this, &MainWindow::snapshotReady, scene_view_, &SceneView::showSnapshot);
+  connect(pipeline_, &PipelineController::started, scene_view_, &SceneView::clear);
+
+  view_menu_->insertAction(view_menu_->actions().at(4), scene_dock->toggleViewAction());
+  view_menu_->insertAction(view_menu_->actions().at(5), threshold_dock->toggleViewAction());
+
+  QMenu* tools = menuBar()->addMenu(tr("&Tools"));
+  tools->addAction(tr("&Vest Check\u2026"), this, [this] {
+    // Its own runtime on its own source; playback pauses so the two do not share the CPU.
+    playback_->pause();
+    VestCheckDialog dialog(QStringLiteral("sim:office"), QString(), this);
+    dialog.exec();
+  });
+
+  QMenu* help = menuBar()->addMenu(tr("&Help"));
+  help->addAction(tr("&About"), this, &MainWindow::showAbout);
 }
 
 QAction* MainWindow::overlayAction(OverlayLayer layer) const {
@@ -385,6 +426,10 @@ void MainWindow::connectControllers() {
 
   connect(loader_, &FrameLoader::frameReady, this, [this](int index, const QImage& image) {
     video_->setFrame(index, image);
+    if (start_pipeline_on_frame_) {
+      start_pipeline_on_frame_ = false;
+      pipeline_->start(sequence_);
+    }
     pipeline_->setCurrentFrame(index, image);
     emit frameShown(index);
   });
@@ -524,7 +569,9 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
     log(tr("Warning: %1").arg(QString::fromStdString(warning)), true);
   }
   if (count == 0) video_->showMessage(tr("%1 has no frames.").arg(description));
-  pipeline_->start(sequence_);
+  // The run starts once the first frame is on screen: the picture comes first.
+  pipeline_->start(nullptr);
+  start_pipeline_on_frame_ = true;
   emit opened(source);
   playback_->play();
 }

@@ -38,6 +38,8 @@ struct FrameOverlays;
 struct FrameSnapshot;
 class PipelineController;
 class PlaybackController;
+class SceneView;
+class ThresholdPanel;
 class Sequence;
 class SequenceOpener;
 
@@ -58,6 +60,8 @@ class MainWindow : public QMainWindow {
   AccelPlot* accelPlot() const { return plot_; }
   CalibrationPlots* calibrationPlots() const { return calibration_plots_; }
   HistoryTable* historyTable() const { return history_table_; }
+  ThresholdPanel* thresholdPanel() const { return threshold_panel_; }
+  SceneView* sceneView() const { return scene_view_; }
   // The open recording (null until one opened) and what it was opened from.
   const Sequence* sequence() const { return sequence_.get(); }
   const QString& source() const { return source_; }
@@ -96,6 +100,8 @@ class MainWindow : public QMainWindow {
   void createCentralArea();
   void createDocks();
   void createOverlayControls();
+  // Docks and dialogs that follow the pipeline: thresholds, the 3-D view, the vest check.
+  void createPipelineDocks();
   void createStatusBar();
   void connectControllers();
   void restoreSettings();
@@ -137,6 +143,9 @@ class MainWindow : public QMainWindow {
   AccelPlot* plot_ = nullptr;
   CalibrationPlots* calibration_plots_ = nullptr;
   HistoryTable* history_table_ = nullptr;
+  ThresholdPanel* threshold_panel_ = nullptr;
+  SceneView* scene_view_ = nullptr;
+  QDockWidget* plot_dock_ = nullptr;
   QDockWidget* calibration_dock_ = nullptr;
   QPlainTextEdit* log_ = nullptr;
   QSlider* slider_ = nullptr;
@@ -155,6 +164,7 @@ class MainWindow : public QMainWindow {
   QActionGroup* view_mode_group_ = nullptr;
   // A history opened by hand stays in the docks; else they follow the pipeline's run.
   bool history_opened_by_hand_ = false;
+  bool start_pipeline_on_frame_ = false;  // A recording opened, its first frame not shown yet.
   QTimer rate_timer_;
   QElapsedTimer rate_clock_;
   uint64_t frames_painted_at_tick_ = 0;

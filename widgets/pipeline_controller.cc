@@ -122,59 +122,72 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
   const CameraIntrinsics prior = *session.premission_calibration;
   AccelCalibration accel;
   accel.cam_from_accel = session.cam_from_accel;
-  run_->thread = std::thread([this, generation, sequence = sequence_, prior, accel,
-                              history_file = history_file.toStdString(), run = run_.get()] {
-    QString error;
+  run_->thread =
+      std::thread([this, generation, sequence = sequence_, prior, accel, options = options_,
+                   history_file = history_file.toStdString(), run = run_.get()] {
+        QString error;
 #ifdef __linux__
-    // The window must keep redrawing while the pipeline takes every core it can: its threads
-    // (the runtime's inherit this one's niceness) give way to the GUI and the frame loader.
-    setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), kPipelineNiceness);
+        // The window must keep redrawing while the pipeline takes every core it can: its threads
+        // (the runtime's inherit this one's niceness) give way to the GUI and the frame loader.
+        setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), kPipelineNiceness);
 #endif
-    try {
-      std::unique_ptr<HistoryStore> store;
-      if (!history_file.empty()) store = std::make_unique<HistoryStore>(history_file);
-      std::unique_ptr<Runtime> runtime;
-      bool recorded = false;
-      // On the runtime's boxes 4-9 thread, frame after frame.
-      const auto on_frame = [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
-        if (snapshot->attempt && store) {
-          store->Record(runtime->history());
-          if (!recorded) {
-            recorded = true;
+        try {
+          std::unique_ptr<HistoryStore> store;
+          if (!history_file.empty()) store = std::make_unique<HistoryStore>(history_file);
+          std::unique_ptr<Runtime> runtime;
+          bool recorded = false;
+          // On the runtime's boxes 4-9 thread, frame after frame.
+          const auto on_frame = [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+            if (snapshot->attempt && store) {
+              store->Record(runtime->history());
+              if (!recorded) {
+                recorded = true;
+                QMetaObject::invokeMethod(
+                    this,
+                    [this, generation, path = QString::fromStdString(history_file)] {
+                      onAttemptRecorded(generation, path);
+                    },
+                    Qt::QueuedConnection);
+              }
+            }
             QMetaObject::invokeMethod(
-                this,
-                [this, generation, path = QString::fromStdString(history_file)] {
-                  onAttemptRecorded(generation, path);
-                },
+                this, [this, generation, snapshot] { onSnapshot(generation, snapshot); },
                 Qt::QueuedConnection);
+          };
+          runtime = std::make_unique<Runtime>(prior, accel, options, RuntimeOptions{}, on_frame);
+          // setOptions sees the runtime from here until just before it is destroyed, however
+          // this scope ends.
+          struct Published {
+            Published(Run* run, Runtime* runtime) : run_(run) {
+              const std::lock_guard lock(run_->runtime_mutex);
+              run_->runtime = runtime;
+            }
+            ~Published() {
+              const std::lock_guard lock(run_->runtime_mutex);
+              run_->runtime = nullptr;
+            }
+            Run* run_;
+          } published(run, runtime.get());
+          // PushSequence's feeding, with a way out between frames.
+          const std::vector<AccelSample>& samples = sequence->accel();
+          size_t fed = 0;
+          for (size_t i = 0; i < sequence->frame_count() && !run->stop; ++i) {
+            const int64_t t_ns = sequence->frame_time_ns(i);
+            const size_t first = fed;
+            while (fed < samples.size() && samples[fed].t_ns + runtime->accel_offset_ns() <=
+                                               t_ns + runtime->accel_lead_ns()) {
+              ++fed;
+            }
+            runtime->PushAccel(std::span(samples).subspan(first, fed - first));
+            runtime->PushFrame(t_ns, sequence->LoadFrame(i));
           }
+          if (!run->stop) runtime->Finish();
+        } catch (const std::exception& e) {
+          error = QString::fromStdString(e.what());
         }
         QMetaObject::invokeMethod(
-            this, [this, generation, snapshot] { onSnapshot(generation, snapshot); },
-            Qt::QueuedConnection);
-      };
-      runtime =
-          std::make_unique<Runtime>(prior, accel, PipelineOptions{}, RuntimeOptions{}, on_frame);
-      // PushSequence's feeding, with a way out between frames.
-      const std::vector<AccelSample>& samples = sequence->accel();
-      size_t fed = 0;
-      for (size_t i = 0; i < sequence->frame_count() && !run->stop; ++i) {
-        const int64_t t_ns = sequence->frame_time_ns(i);
-        const size_t first = fed;
-        while (fed < samples.size() &&
-               samples[fed].t_ns + runtime->accel_offset_ns() <= t_ns + runtime->accel_lead_ns()) {
-          ++fed;
-        }
-        runtime->PushAccel(std::span(samples).subspan(first, fed - first));
-        runtime->PushFrame(t_ns, sequence->LoadFrame(i));
-      }
-      if (!run->stop) runtime->Finish();
-    } catch (const std::exception& e) {
-      error = QString::fromStdString(e.what());
-    }
-    QMetaObject::invokeMethod(
-        this, [this, generation, error] { onEnded(generation, error); }, Qt::QueuedConnection);
-  });
+            this, [this, generation, error] { onEnded(generation, error); }, Qt::QueuedConnection);
+      });
 }
 
 double PipelineController::framesPerSecond() const {
@@ -252,6 +265,18 @@ void PipelineController::setCurrentFrame(int index, const QImage& image) {
   updateCurrent();
 }
 
+void PipelineController::setOptions(const PipelineOptions& options) {
+  options_ = options;
+  if (!run_) return;
+  const std::lock_guard lock(run_->runtime_mutex);
+  if (!run_->runtime) return;
+  try {
+    run_->runtime->SetOptions(options);
+  } catch (const std::exception& e) {
+    emit optionsRefused(QString::fromStdString(e.what()));
+  }
+}
+
 void PipelineController::setRectifiedWanted(bool wanted) {
   if (wanted == rectified_wanted_) return;
   rectified_wanted_ = wanted;
@@ -279,10 +304,10 @@ void PipelineController::updateCurrent() {
   if (current_.snapshot) {
     const std::vector<PlacedBoard> boards = boardsAt(current_.snapshot->t_ns);
     current_.raw = std::make_shared<const OverlayGeometry>(
-        MakeOverlayGeometry(*current_.snapshot, boards, board_options_, OverlaySpace::kRaw));
+        MakeOverlayGeometry(*current_.snapshot, boards, options_.board, OverlaySpace::kRaw));
     if (rectified_wanted_) {
       current_.rectified = std::make_shared<const OverlayGeometry>(MakeOverlayGeometry(
-          *current_.snapshot, boards, board_options_, OverlaySpace::kRectified));
+          *current_.snapshot, boards, options_.board, OverlaySpace::kRectified));
       requestRectified();
     }
   }

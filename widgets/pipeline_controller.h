@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <thread>
 #include <vector>
@@ -35,6 +36,7 @@
 
 namespace autocal {
 
+class Runtime;
 class Sequence;
 
 // What the video view shows over one frame.
@@ -66,6 +68,8 @@ class PipelineController : public QObject {
   void start(std::shared_ptr<const Sequence> sequence);
   // Stops the run under way; what it found stays.
   void stop();
+  // The options runs start with (PipelineOptions' defaults until set).
+  const PipelineOptions& options() const { return options_; }
 
   bool isRunning() const { return running_; }
   int framesDone() const { return frames_done_; }
@@ -84,6 +88,10 @@ class PipelineController : public QObject {
   void setCurrentFrame(int index, const QImage& image);
   // Whether the rectified image and its overlay are wanted.
   void setRectifiedWanted(bool wanted);
+  // Options for the run under way, from its next frame (Runtime::SetOptions), and for the
+  // runs after it. What the runtime refuses (acceptance thresholds during a run) is said by
+  // optionsRefused and applies from the next run.
+  void setOptions(const autocal::PipelineOptions& options);
 
  signals:
   void started(int frames);
@@ -93,6 +101,7 @@ class PipelineController : public QObject {
   void historyStarted(const QString& path);
   void finished(int frames, double seconds);
   void failed(const QString& message);
+  void optionsRefused(const QString& message);
   // The overlays of the frame on screen changed (its snapshot arrived, a later attempt
   // placed boards on it, or another frame is on screen).
   void overlaysChanged(const autocal::FrameOverlays& overlays);
@@ -104,6 +113,8 @@ class PipelineController : public QObject {
     uint64_t generation = 0;
     std::atomic<bool> stop{false};
     std::thread thread;
+    std::mutex runtime_mutex;
+    Runtime* runtime = nullptr;  // While it exists, for setOptions.
   };
   struct Rectified {
     int index = -1;
@@ -130,7 +141,7 @@ class PipelineController : public QObject {
   int frame_count_ = 0;
   QElapsedTimer clock_;
   double elapsed_s_ = 0.0;  // Of an ended run.
-  VirtualBoardOptions board_options_;
+  PipelineOptions options_;
   std::unique_ptr<QTemporaryDir> history_dir_;
   QString history_path_;
 

@@ -424,7 +424,7 @@ void WorkbenchTest::playsSeeksAndSteps() {
                     false);
   QApplication::sendEvent(plot.viewport(), &wheel);
   QCOMPARE(plot.windowSeconds(), 8.0);
-  QCOMPARE(window->findChild<QDoubleSpinBox*>()->value(), 8.0);
+  QCOMPARE(window->findChild<QDoubleSpinBox*>(QStringLiteral("plot_window"))->value(), 8.0);
   QTRY_COMPARE(plot.visibleEnd() - plot.visibleStart(), 8.0);
 
   // A click on the plot seeks to the time under the mouse.
