@@ -284,13 +284,13 @@ VestCheckResult VestCheck::Result() const {
                              std::to_string(options_.min_accepted) +
                              " calibration updates were accepted");
   }
-  // A jump raised after the last new regime and not confirmed: the lens may have moved.
+  // A jump alarm with no update accepted since, on the old trend or as a new regime: the
+  // history has not decided whether the lens moved.
   const auto last_alarm = std::find_if(attempts_.rbegin(), attempts_.rend(),
                                        [](const auto& a) { return a.verdict == Verdict::kAlarm; });
-  const auto last_regime = std::find_if(attempts_.rbegin(), attempts_.rend(), [](const auto& a) {
-    return a.verdict == Verdict::kNewRegime;
-  });
-  if (last_alarm != attempts_.rend() && last_alarm < last_regime) {
+  const auto last_founding = std::find_if(attempts_.rbegin(), attempts_.rend(),
+                                          [](const auto& a) { return Founds(a.verdict); });
+  if (last_alarm < last_founding) {
     result.reasons.push_back("a jump in the calibration was raised and not yet confirmed");
   }
   for (const VestNeedStatus& status : result.coverage) {

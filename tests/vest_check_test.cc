@@ -105,6 +105,11 @@ TEST(VestCheck, GuidanceFollowsWhatTheHistorySaid) {
   EXPECT_EQ(result.reasons.front(), "a jump in the calibration was raised and not yet confirmed");
   ASSERT_EQ(result.alarms.size(), 1u);
   EXPECT_EQ(result.alarms.front(), "3.0 s: jump in fx -8.28 px");
+  // Dismissed: the next attempt is back on the old trend.
+  VestCheck dismissed = check;
+  dismissed.Add(Judged(4.0, Verdict::kAccepted, "accepted"));
+  EXPECT_TRUE(dismissed.Result().reasons.empty() ||
+              dismissed.Result().reasons.front() != result.reasons.front());
   // Confirmed: a new regime, whose updates start again from its founder.
   check.Add(Judged(4.0, Verdict::kNewRegime, "new regime", 2));
   EXPECT_EQ(check.Coverage()[int(VestNeed::kUpdates)].measured, "1 of 3");
