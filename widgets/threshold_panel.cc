@@ -195,9 +195,10 @@ ThresholdPanel::ThresholdPanel(QWidget* parent, const QString& presets_dir)
               [this, index](double value) { edit(index, value); });
       row.editor = spin;
     }
-    // Room for values such as 0.0001 whatever the range's own width.
+    // One width for every number, room for 0.0000001 whatever the range (an unbounded one
+    // would otherwise size the box for 1.8e+308).
     if (field.kind != OptionField::Kind::kFlag) {
-      row.editor->setMinimumWidth(row.editor->fontMetrics().horizontalAdvance("0.000001") + 40);
+      row.editor->setFixedWidth(row.editor->fontMetrics().horizontalAdvance("0.0000001") + 40);
     }
     row.editor->setToolTip(tip);
     row.editor->setObjectName(name);
