@@ -327,6 +327,15 @@ void ThresholdPanel::showError(const QString& message) {
   report(message);
 }
 
+void ThresholdPanel::setRunning(bool running) {
+  for (const Row& row : rows_) {
+    if (PipelineOptionFields()[row.field].name.starts_with("acceptance.")) {
+      row.editor->setEnabled(!running);
+      row.reset->setVisible(!running);
+    }
+  }
+}
+
 void ThresholdPanel::setFilter(const QString& text) {
   if (search_->text() != text) search_->setText(text);  // Comes back here once.
   for (const Row& row : rows_) {

@@ -8,9 +8,10 @@
 // Wiring it into the main window: connect
 //   ThresholdPanel::optionsChanged(const autocal::PipelineOptions&)
 // to the pipeline controller's setOptions slot, which calls Runtime::SetOptions
-// (devices/runtime.h): the options apply from the next frame pushed. Runtime::SetOptions
-// refuses acceptance.* changes during a run; show its Error with showError(). When a run
-// starts with other options (say from `--settings`), call setOptions() to show them.
+// (devices/runtime.h): the options apply from the next frame pushed. Call setRunning(true)
+// when a run starts (acceptance.* cannot change during one) and false when it ends; show an
+// Error of Runtime::SetOptions with showError(). When a run starts with other options (say
+// from `--settings`), call setOptions() to show them.
 #pragma once
 
 #include <vector>
@@ -43,6 +44,10 @@ class ThresholdPanel : public QWidget {
   const PipelineOptions& options() const { return options_; }
   // Shows `options` without emitting optionsChanged. They must pass Check().
   void setOptions(const PipelineOptions& options);
+
+  // While a run goes on the acceptance.* fields are disabled: the history judges all its
+  // attempts by one set, and Runtime::SetOptions refuses a change to them.
+  void setRunning(bool running);
 
   // Shows only the fields whose name or explanation contains `text` (any case).
   void setFilter(const QString& text);

@@ -107,6 +107,13 @@ void ThresholdPanelTest::validEditsAreEmittedInvalidOnesShownNotEmitted() {
   QCOMPARE(panel.options().acceptance.min_points_quadratic, quadratic + 6);
   QVERIFY(panel.fieldError("acceptance.min_points_linear").isEmpty());
 
+  // During a run the acceptance thresholds are fixed; the rest stay editable.
+  panel.setRunning(true);
+  QVERIFY(!panel.editor("acceptance.max_rms_px")->isEnabled());
+  QVERIFY(panel.editor("calibration.loss_px")->isEnabled());
+  panel.setRunning(false);
+  QVERIFY(panel.editor("acceptance.max_rms_px")->isEnabled());
+
   // A refusal from the runtime is shown under the field it names.
   panel.showError("pipeline options: acceptance.max_rms_px cannot change during a run");
   QVERIFY(panel.fieldError("acceptance.max_rms_px").contains("cannot change"));
