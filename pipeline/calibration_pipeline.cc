@@ -63,6 +63,7 @@ LensFrame LensHalf::Process(int64_t t_ns, const cv::Mat& raw, const CalibrationS
 
   const auto start = std::chrono::steady_clock::now();
   frame.gray = rectifier_.Equalize(rectifier_.Channel(raw));
+  frame.quality = MeasureImageQuality(raw);
   frame.rectify_ms = MillisecondsSince(start);
 
   if (pooled_version_ != lens_.pool_version()) {
@@ -79,7 +80,8 @@ MotionHalf::MotionHalf(const CameraIntrinsics& premission, const AccelCalibratio
       motion_(options.motion),
       inertial_(accel, options.inertial),
       material_(options.material),
-      history_(premission, options.acceptance) {
+      history_(premission, options.acceptance),
+      quality_gate_(options.material.quality) {
   std::string why;
   if (!options.Check(&why)) throw Error("pipeline options: " + why);
   filtered_ = history_.Current(0);
@@ -92,6 +94,7 @@ void MotionHalf::set_options(const PipelineOptions& options) {
   motion_.set_options(options.motion);
   inertial_.set_options(options.inertial);
   material_.set_options(options.material);
+  quality_gate_.set_options(options.material.quality);
 }
 
 void MotionHalf::AddAccel(std::span<const SpecificForceSample> samples) {
@@ -148,15 +151,29 @@ FrameSnapshot MotionHalf::Process(LensFrame frame, std::optional<CalibrationJob>
   snapshot.motion.inertial.inertial_ms = snapshot.timing.inertial_ms;
 
   start = std::chrono::steady_clock::now();
-  snapshot.view = material_.Add(snapshot.motion, snapshot.inertial);
+  snapshot.quality = frame.quality;
+  if (auto degraded = quality_gate_.Judge(frame.t_ns, frame.quality)) {
+    snapshot.degraded = *degraded;
+    last_degraded_ns_ = frame.t_ns;
+    last_degraded_ = *degraded;
+  }
+  snapshot.view = snapshot.degraded.empty() && material_.Add(snapshot.motion, snapshot.inertial);
+  // While frames are unfit, attempts still come when due, so that the history says why
+  // nothing is updated; they stay without an update until the window is clean again.
+  const bool window_degraded =
+      last_degraded_ns_ &&
+      double(frame.t_ns - *last_degraded_ns_) <= options_.material.window_s * 1e9;
   const bool due = !last_attempt_ns_ || double(frame.t_ns - *last_attempt_ns_) >=
                                             options_.material.attempt_every_s * 1e9;
-  if (job && snapshot.view && due && !job_pending_ &&
+  if (job && (snapshot.view || !snapshot.degraded.empty()) && due && !job_pending_ &&
       material_.span_s() >= 0.5 * options_.material.window_s) {
     CalibrationJob next;
     next.t_ns = frame.t_ns;
     next.material = material_.Assemble(frame.pooled_shapes ? *frame.pooled_shapes
                                                            : std::vector<LineObservation>{});
+    if (window_degraded) {
+      next.material.degraded = "unfit images in the window (latest: " + last_degraded_ + ")";
+    }
     next.prior = snapshot.working;
     next.view_times = material_.view_times();
     *job = std::move(next);

@@ -23,6 +23,7 @@
 
 #include "pipeline/calibration_history.h"
 #include "pipeline/camera_model.h"
+#include "pipeline/image_quality.h"
 #include "pipeline/inertial.h"
 #include "pipeline/lens_stage.h"
 #include "pipeline/material_window.h"
@@ -90,6 +91,11 @@ struct FrameSnapshot {
   LensSnapshot lens;
   MotionSnapshot motion;
   InertialSnapshot inertial;
+  ImageQuality quality;  // Of the raw frame.
+  // Why the frame is unfit to measure from (fog, noise), compared with the recent good
+  // frames; empty when it is fit. An unfit frame is no view, and no update is made from a
+  // window that held one.
+  std::string degraded;
   bool view = false;  // The frame joined the window of material.
   // The attempt judged on this frame, if one was.
   std::shared_ptr<const AttemptOutcome> attempt;
@@ -111,7 +117,8 @@ struct LensFrame {
   CameraIntrinsics working;
   LensSnapshot lens;
   cv::Mat gray;  // Box 3: the equalized green channel that boxes 4-6 track.
-  double rectify_ms = 0.0;
+  ImageQuality quality;  // Of the raw frame, before equalization hides its fading.
+  double rectify_ms = 0.0;  // Box 3 and the quality measure.
   // Box 1's snake shapes pooled so far, shared between frames while the pool is unchanged
   // (box 10's plumb-line material).
   std::shared_ptr<const std::vector<LineObservation>> pooled_shapes;
@@ -169,6 +176,9 @@ class MotionHalf {
   // Per plane: its reference frame and decomposed rotation in the previous frame.
   std::vector<std::pair<int, std::pair<int64_t, Eigen::Matrix3d>>> previous_rotations_;
   std::optional<int64_t> last_attempt_ns_;
+  ImageQualityGate quality_gate_;
+  std::optional<int64_t> last_degraded_ns_;
+  std::string last_degraded_;  // Why the newest unfit frame was.
   bool job_pending_ = false;
   int64_t frames_ = 0;
 };

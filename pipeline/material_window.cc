@@ -19,6 +19,8 @@ bool MaterialOptions::Check(std::string* error) const {
     why = "min_views_per_point must be at least 2";
   } else if (max_lines < 0) {
     why = "max_lines must not be negative";
+  } else if (!quality.Check(&why)) {
+    why = "quality." + why;
   }
   if (why.empty()) return true;
   if (error) *error = why;

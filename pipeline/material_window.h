@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include "pipeline/image_quality.h"
 #include "pipeline/inertial.h"
 #include "pipeline/motion_stage.h"
 #include "pipeline/self_calibration.h"
@@ -33,6 +34,9 @@ struct MaterialOptions {
   int max_points_per_plane = 120;
   int min_views_per_point = 4;  // Tracks seen in fewer views constrain too little.
   int max_lines = 150;          // Straight-line shapes handed on, spread over the pool.
+  // Frames unfit to measure from (fog, noise bursts) are no views, and a window that held
+  // one makes no update.
+  ImageQualityOptions quality;
 
   bool Check(std::string* error) const;
 };

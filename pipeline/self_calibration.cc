@@ -278,6 +278,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     result.reason = "no update: " + why;
     return result;
   };
+  if (!material.degraded.empty()) return no_update(material.degraded);
 
   // Observations in ideal normalized coordinates of the prior, per usable plane; the
   // largest plane anchors the world.

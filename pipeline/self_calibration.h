@@ -42,6 +42,9 @@ struct GravityObservation {
 
 // Everything one calibration attempt draws on, over a window of frames.
 struct CalibrationMaterial {
+  // Why images in the window were unfit to measure from (box 9's quality gate); when set,
+  // the attempt makes no update.
+  std::string degraded;
   int frame_count = 0;
   std::vector<PlaneTrack> planes;
   std::vector<LineObservation> lines;  // Snake shapes: straight world lines.

@@ -1,0 +1,71 @@
+// Whether a frame is fit to measure from: fog (blur, lost contrast) and noise bursts make
+// tracks wander and planes blur, and a calibration solved on them drifts off the trend.
+// Each frame is measured on the raw image and compared with what this camera showed on
+// its recent good frames, so that a scene's own texture does not count as a fault.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <optional>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+namespace autocal {
+
+struct ImageQuality {
+  // Standard deviation of the sensor noise, grey levels, by Immerkaer's estimator (a
+  // Laplacian difference that cancels smooth image content).
+  double noise_grey = 0.0;
+  // How much a further blur changes the image (Crete-Roffet's measure): 0 for a sharp
+  // image, 1 when re-blurring changes nothing.
+  double blur = 0.0;
+  // Spread of the grey levels between their 5th and 95th percentiles.
+  double contrast_grey = 0.0;
+};
+
+// Measures an 8-bit BGR or grey image.
+ImageQuality MeasureImageQuality(const cv::Mat& image);
+
+struct ImageQualityOptions {
+  bool enabled = true;
+  double baseline_s = 3.0;          // Good frames this far back make the usual quality.
+  int min_baseline_frames = 10;     // Fewer: nothing is judged yet.
+  double max_blur_increase = 0.12;  // Blur above the usual by more than this: defocus.
+  // Fog both blurs and fades, and its blur smooths the sensor noise away: blur up by this
+  // much with contrast or noise below these fractions of the usual.
+  double fog_blur_increase = 0.06;
+  double fog_contrast_ratio = 0.8;
+  double fog_noise_ratio = 0.75;
+  double min_contrast_ratio = 0.5;       // Contrast below this fraction alone: glare, fog.
+  double max_noise_ratio = 2.0;          // Noise above this many times the usual...
+  double min_noise_increase_grey = 3.0;  // ...and by at least this many grey levels.
+  // A degradation that lasts longer becomes the usual (a darker place, a dirty window):
+  // calibrating on it is then better than never calibrating again.
+  double accept_as_usual_s = 10.0;
+
+  bool Check(std::string* error) const;
+};
+
+// Judges each frame against the median of the recent good ones.
+class ImageQualityGate {
+ public:
+  explicit ImageQualityGate(const ImageQualityOptions& options = {});
+
+  // Frames in time order. Returns why the frame is degraded, or nothing when it is fit.
+  std::optional<std::string> Judge(int64_t t_ns, const ImageQuality& quality);
+
+  void set_options(const ImageQualityOptions& options) { options_ = options; }
+
+ private:
+  struct Sample {
+    int64_t t_ns;
+    ImageQuality quality;
+  };
+
+  ImageQualityOptions options_;
+  std::deque<Sample> good_;
+  std::optional<int64_t> degraded_since_ns_;
+};
+
+}  // namespace autocal
