@@ -137,6 +137,8 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   checklist_ = new QListWidget(walk_page);
   checklist_->setSelectionMode(QAbstractItemView::NoSelection);
   checklist_->setFocusPolicy(Qt::NoFocus);
+  checklist_->setWordWrap(true);
+  checklist_->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
   QFont list_font = checklist_->font();
   list_font.setPointSize(list_font.pointSize() + 2);
   checklist_->setFont(list_font);
@@ -267,7 +269,7 @@ void VestCheckDialog::ShowProgress() {
     item->setText(QStringLiteral("%1  %2 — %3%4")
                       .arg(s.done ? QStringLiteral("✔") : QStringLiteral("✘"),
                            QString::fromStdString(s.name), QString::fromStdString(s.measured),
-                           s.required ? QString() : tr(" (helps, not needed)")));
+                           s.required ? QString() : tr(" (helps)")));
     item->setForeground(s.done       ? QColor(0x1b, 0x7f, 0x2a)
                         : s.required ? QColor(0xb0, 0x00, 0x20)
                                      : QColor(0x70, 0x70, 0x70));
