@@ -25,6 +25,7 @@
 #include <QMessageBox>
 #include <QMimeData>
 #include <QPlainTextEdit>
+#include <QPushButton>
 #include <QScreen>
 #include <QSettings>
 #include <QSignalBlocker>
@@ -41,8 +42,10 @@
 #include "widgets/accel_plot.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
+#include "widgets/device_panel.h"
 #include "widgets/frame_loader.h"
 #include "widgets/history_table.h"
+#include "widgets/live_session.h"
 #include "widgets/pipeline_controller.h"
 #include "widgets/playback_controller.h"
 #include "widgets/scene_view.h"
@@ -334,6 +337,46 @@ void MainWindow::createPipelineDocks() {
 
   view_menu_->insertAction(view_menu_->actions().at(4), scene_dock->toggleViewAction());
   view_menu_->insertAction(view_menu_->actions().at(5), threshold_dock->toggleViewAction());
+
+  auto* session = new LiveSession(this);  // A child: closing the window ends a recording cleanly.
+  auto* devices_dock = new QDockWidget(tr("Devices"), this);
+  devices_dock->setObjectName(QStringLiteral("devices_dock"));
+  devices_dock->setWidget(new DevicePanel(session));
+  addDockWidget(Qt::RightDockWidgetArea, devices_dock);
+  devices_dock->hide();  // View › Devices.
+  view_menu_->insertAction(view_menu_->actions().at(6), devices_dock->toggleViewAction());
+  connect(session, &LiveSession::connected, this, [this](const QString& description) {
+    playback_->pause();
+    log(tr("Live: %1").arg(description));
+  });
+  connect(session, &LiveSession::connectFailed, this,
+          [this](const QString& message) { log(tr("Could not connect: %1").arg(message), true); });
+  connect(session, &LiveSession::deviceEvent, this, [this](const QString& text) { log(text); });
+  connect(session, &LiveSession::disconnected, this, [this] { log(tr("Live source ended")); });
+  // The live pipeline's newest snapshot goes where the recording's go (the 3-D view).
+  connect(session, &LiveSession::statusChanged, this, [this, session] {
+    std::shared_ptr<const FrameSnapshot> snapshot = session->latestSnapshot();
+    if (snapshot && snapshot != last_live_snapshot_) {
+      last_live_snapshot_ = snapshot;
+      emit snapshotReady(std::move(snapshot));
+    }
+  });
+  connect(session, &LiveSession::recordingFailed, this,
+          [this](const QString& message) { log(tr("Recording failed: %1").arg(message), true); });
+  connect(session, &LiveSession::recordingStopped, this,
+          [this](const QString& dir, const QString& summary) {
+            log(tr("Recorded %1: %2").arg(dir, summary));
+            auto* box = new QMessageBox(QMessageBox::Information, tr("Recording complete"),
+                                        tr("Recorded %1").arg(dir), QMessageBox::Close, this);
+            box->setInformativeText(summary);
+            QPushButton* open_it = box->addButton(tr("Open It"), QMessageBox::AcceptRole);
+            box->setAttribute(Qt::WA_DeleteOnClose);
+            connect(box, &QMessageBox::buttonClicked, this,
+                    [this, dir, open_it](QAbstractButton* button) {
+                      if (button == open_it) open(dir);
+                    });
+            box->open();
+          });
 
   QMenu* tools = menuBar()->addMenu(tr("&Tools"));
   tools->addAction(tr("&Vest Check\u2026"), this, [this] {

@@ -164,7 +164,10 @@ class MainWindow : public QMainWindow {
   QActionGroup* view_mode_group_ = nullptr;
   // A history opened by hand stays in the docks; else they follow the pipeline's run.
   bool history_opened_by_hand_ = false;
-  bool start_pipeline_on_frame_ = false;  // A recording opened, its first frame not shown yet.
+  bool start_pipeline_on_frame_ = false;
+  std::shared_ptr<const FrameSnapshot>
+      last_live_snapshot_;  // Forwarded last.  // A recording opened, its first frame not shown
+                            // yet.
   QTimer rate_timer_;
   QElapsedTimer rate_clock_;
   uint64_t frames_painted_at_tick_ = 0;

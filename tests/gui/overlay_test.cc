@@ -27,6 +27,8 @@
 #include "widgets/main_window.h"
 #include "widgets/pipeline_controller.h"
 #include "widgets/playback_controller.h"
+#include "widgets/scene_view.h"
+#include "widgets/threshold_panel.h"
 #include "widgets/video_view.h"
 
 namespace autocal {
@@ -176,7 +178,7 @@ class OverlayTest : public QObject {
   void init();
   void everyLayerDrawsOnItsGeometryAndNowhereElse();
   void rectifiedViewIsBox3sImage();
-  void switchesPersist();
+  void switchesPersist();  // And the threshold panel feeds the controller.
   void redrawRateWhilePipelineRuns();
 
  private:
@@ -328,6 +330,10 @@ void OverlayTest::CheckLayers(const QString& source, const std::vector<OverlayLa
     window->overlayAction(layer)->trigger();
     QVERIFY2(Grab(view) == bare, qPrintable(key + QStringLiteral(" off leaves the frame bare")));
   }
+  // The 3-D view follows the run: boards were placed, so box 10 posed an attempt it shows.
+  if (std::find(layers.begin(), layers.end(), OverlayLayer::kBoards) != layers.end()) {
+    QVERIFY(window->sceneView()->scene().has_value());
+  }
   OverlayLayers all;
   for (const OverlayLayer layer : kAllOverlayLayers) all |= layer;
   SetLayers(*window, all);
@@ -397,6 +403,13 @@ void OverlayTest::switchesPersist() {
   }
   MainWindow window;
   QCOMPARE(window.videoView()->layers(), OverlayLayer::kSnakes | OverlayLayer::kGravity);
+
+  // The threshold panel's options go to the pipeline controller, for the next run.
+  PipelineOptions tuned = window.pipelineController()->options();
+  tuned.lens.snakes.spacing_px += 3.0;
+  emit window.thresholdPanel()->optionsChanged(tuned);
+  QCOMPARE(window.pipelineController()->options().lens.snakes.spacing_px,
+           tuned.lens.snakes.spacing_px);
   QVERIFY(window.overlayAction(OverlayLayer::kSnakes)->isChecked());
   QVERIFY(!window.overlayAction(OverlayLayer::kTracks)->isChecked());
   QCOMPARE(window.videoView()->viewMode(), VideoView::ViewMode::kSideBySide);
