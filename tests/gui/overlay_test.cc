@@ -11,7 +11,6 @@
 #include <vector>
 
 #include <QAction>
-#include <QDir>
 #include <QImage>
 #include <QPainter>
 #include <QSettings>
@@ -23,6 +22,7 @@
 #include "devices/recording_writer.h"
 #include "devices/sequence.h"
 #include "pipeline/rectifier.h"
+#include "tests/gui/screenshot.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/main_window.h"
 #include "widgets/pipeline_controller.h"
@@ -44,9 +44,7 @@ constexpr double kNearPx = 8.0;
 QImage Grab(VideoView& view) { return view.grab().toImage().convertToFormat(QImage::Format_RGB32); }
 
 void SaveScreenshot(const QImage& image, const QString& name) {
-  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QDir().mkpath(dir);
-  const QString path = QDir(dir).filePath(name);
+  const QString path = ScreenshotPath(name);
   QVERIFY2(image.save(path), qPrintable(path));
   qInfo("screenshot: %s", qPrintable(path));
 }
