@@ -271,6 +271,7 @@ class PacedSource : public FrameSource {
 
  private:
   using Clock = std::chrono::steady_clock;
+  static constexpr auto kLateness = std::chrono::milliseconds(20);
   struct Arrivals {
     uint64_t count = 0;
     Clock::time_point first, last;
@@ -299,6 +300,11 @@ class PacedSource : public FrameSource {
             start +
             std::chrono::duration_cast<Clock::duration>(
                 std::chrono::duration<double, std::nano>(double(item.t_ns - *first_ns) / speed_));
+        // Later than that (the recording reads slower than real time): the pace goes on
+        // from here, without a burst to catch up, as a camera's would.
+        if (const Clock::time_point now = Clock::now(); now > due + kLateness) {
+          start += now - due;
+        }
         if (stop_.wait_until(lock, due, [&] { return stopped_; })) break;
         (item.kind == SourceItem::Kind::kFrame ? frames_in_ : accel_in_).Add(Clock::now());
         lock.unlock();

@@ -204,7 +204,8 @@ struct SourceOptions {
   // slow consumer leaves beyond frame_queue / accel_queue is dropped (oldest first) and
   // counted, as a camera's would be. Times stay the recording's, and sequence() still
   // gives its ground truth. A source slower than real time (the simulator rendering a
-  // large image) delivers as fast as it can. Ignored for a live camera.
+  // large image) delivers as fast as it can, then keeps the pace from there without a
+  // burst. Ignored for a live camera.
   bool real_time = false;
   // With real_time: the recording's seconds per wall-clock second (2: twice as fast, a
   // stream at twice its frame rate).

@@ -4,7 +4,10 @@
 // enumeration on a folder that holds no V4L2 device.
 #include "devices/source.h"
 
+#include <algorithm>
+#include <chrono>
 #include <filesystem>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -227,6 +230,69 @@ TEST(SourcesTest, RefusesClocksThatDoNotMix) {
   }
   EXPECT_THROW(OpenSource("camera:0", dir / "accel.csv"), Error);
   EXPECT_THROW(OpenSource(dir / "nothing-here"), Error);
+}
+
+// --live: a recording played as a live source keeps to its own timestamps in real time
+// (twice as fast here), keeps its times and ground truth, and drops what a consumer that
+// stalls leaves beyond the queue, counted.
+TEST(SourcesTest, RealTimePlaybackPacesAndDropsForASlowConsumer) {
+  SourceOptions options;
+  options.real_time = true;
+  options.real_time_speed = 2.0;
+  options.frame_queue = 3;
+  const std::unique_ptr<FrameSource> source =
+      OpenSource("sim:static,seconds=1,resolution=64x48,fps=30", "", options);
+  ASSERT_TRUE(source->live());
+  ASSERT_NE(source->sequence(), nullptr);
+  const Sequence& recorded = *source->sequence();
+  ASSERT_NE(recorded.ground_truth(), nullptr);
+  source->Start();
+  std::vector<int64_t> frames;
+  std::vector<std::chrono::steady_clock::time_point> taken;
+  SourceItem item;
+  while (source->Next(&item, std::chrono::seconds(5)) == FrameSource::Status::kItem) {
+    if (item.kind != SourceItem::Kind::kFrame) continue;
+    EXPECT_EQ(item.t_ns, recorded.frame_time_ns(item.frame_number)) << "the recording's times";
+    frames.push_back(item.t_ns);
+    taken.push_back(std::chrono::steady_clock::now());
+    // Stalls for half of the playback after the first frame, then takes everything.
+    if (frames.size() == 1) std::this_thread::sleep_for(std::chrono::milliseconds(250));
+  }
+  const SourceStats stats = source->stats();
+  EXPECT_GT(stats.frames_dropped, 0u) << "the stall overflowed the queue of 3";
+  EXPECT_EQ(frames.size() + stats.frames_dropped, recorded.frame_count());
+  EXPECT_EQ(stats.frames, frames.size());
+  EXPECT_TRUE(std::is_sorted(frames.begin(), frames.end()));
+  // Paced: the last frame comes no earlier than its time at twice real time (~0.5 s).
+  const double last_s = 1e-9 * double(frames.back() - frames.front()) / 2.0;
+  EXPECT_GE(std::chrono::duration<double>(taken.back() - taken.front()).count(), last_s - 0.02);
+  EXPECT_GT(stats.camera_rate_hz, 35.0) << "30 frames/s played twice as fast";
+  EXPECT_LT(stats.camera_rate_hz, 70.0);
+}
+
+TEST(DroppingItemQueueTest, DropsTheOldestOfAKindAndNeverAnEvent) {
+  DroppingItemQueue queue(2, 1);
+  for (int i = 0; i < 4; ++i) {
+    SourceItem item;
+    item.kind = i == 1 ? SourceItem::Kind::kEvent : SourceItem::Kind::kFrame;
+    item.t_ns = i;
+    queue.Push(item);
+  }
+  SourceItem sample;
+  sample.kind = SourceItem::Kind::kAccel;
+  sample.t_ns = 10;
+  queue.Push(sample);
+  sample.t_ns = 11;
+  queue.Push(sample);
+  queue.Close();
+  EXPECT_EQ(queue.frames_dropped(), 1u);
+  EXPECT_EQ(queue.accel_dropped(), 1u);
+  std::vector<int64_t> left;
+  SourceItem item;
+  while (queue.Pop(&item, std::chrono::milliseconds(0)) == FrameSource::Status::kItem) {
+    left.push_back(item.t_ns);
+  }
+  EXPECT_EQ(left, (std::vector<int64_t>{1, 2, 3, 11}));  // Frame 0 and sample 10 dropped.
 }
 
 TEST(TimeOrderMergerTest, HoldsAFrameUntilTheAccelerometerPassesIt) {
