@@ -505,7 +505,7 @@ void MainWindow::connectControllers() {
   });
   connect(pipeline_, &PipelineController::failed, this, [this](const QString& message) {
     onPipelineProgress();
-    log(tr("Pipeline stopped: %1").arg(message), true);
+    log(tr("Pipeline not running: %1").arg(message), true);
   });
   connect(&rate_timer_, &QTimer::timeout, this, &MainWindow::onRateTick);
   rate_timer_.start(1000);
@@ -742,6 +742,10 @@ void MainWindow::onPipelineProgress() {
   const int total = pipeline_->frameCount();
   if (total == 0) {
     status_pipeline_->clear();
+    return;
+  }
+  if (!pipeline_->isRunning() && done == 0) {
+    status_pipeline_->setText(tr("pipeline not running"));
     return;
   }
   const QString fps = QString::number(pipeline_->framesPerSecond(), 'f', 1);

@@ -163,8 +163,8 @@ void VideoView::paintEvent(QPaintEvent* /*event*/) {
     const QString note = pipelineNote();
     if (!note.isEmpty()) {
       const QFontMetricsF metrics(painter.font());
-      const QRectF box =
-          metrics.boundingRect(note).translated(10, 10 + metrics.ascent()).adjusted(-6, -3, 6, 3);
+      const QPointF corner = imageRect().topLeft() + QPointF(10, 10 + metrics.ascent());
+      const QRectF box = metrics.boundingRect(note).translated(corner).adjusted(-6, -3, 6, 3);
       painter.fillRect(box, QColor(0, 0, 0, 170));
       painter.setPen(QColor(235, 235, 235));
       painter.drawText(box, Qt::AlignCenter, note);
