@@ -483,6 +483,10 @@ void MainWindow::connectControllers() {
   connect(pipeline_, &PipelineController::started, this, [this](int frames) {
     run_frames_painted_ = 0;
     run_seconds_played_ = 0.0;
+    if (!history_opened_by_hand_) {  // The previous run's history is not this recording's.
+      calibration_plots_->setSeries(nullptr);
+      history_table_->setSeries(nullptr);
+    }
     log(tr("Pipeline started on %n frame(s), as fast as it can, from the first frame", nullptr,
            frames));
     onPipelineProgress();
@@ -642,8 +646,13 @@ void MainWindow::openHistory(const QString& path) {
   history_opener_->open(path);
 }
 
+bool MainWindow::isReplacedRunHistory(const QString& path) const {
+  return !history_opened_by_hand_ && path != pipeline_->historyPath();
+}
+
 void MainWindow::onHistoryOpened(const QString& path,
                                  std::shared_ptr<const CalibrationSeries> series) {
+  if (isReplacedRunHistory(path)) return;
   statusBar()->clearMessage();
   const StoredHistory& stored = series->stored;
   log(tr("Opened history %1: %2 attempts, %3 alarms, %4 regimes")
@@ -678,6 +687,7 @@ void MainWindow::onHistoryFailed(const QString& path, const QString& message) {
 
 void MainWindow::onHistoryUpdated(const QString& path,
                                   std::shared_ptr<const CalibrationSeries> series) {
+  if (isReplacedRunHistory(path)) return;
   const CalibrationSeries* shown = calibration_plots_->series();
   const size_t before = shown ? shown->stored.attempts.size() : 0;
   const size_t now = series->stored.attempts.size();

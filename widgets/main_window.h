@@ -111,6 +111,8 @@ class MainWindow : public QMainWindow {
   void onHistoryOpened(const QString& path, std::shared_ptr<const CalibrationSeries> series);
   void onHistoryFailed(const QString& path, const QString& message);
   void onHistoryUpdated(const QString& path, std::shared_ptr<const CalibrationSeries> series);
+  // A history of an earlier pipeline run, still read or followed after a new run began.
+  bool isReplacedRunHistory(const QString& path) const;
   // Plots and table go where the video would be at `seconds`, or there alone without video.
   void seekToTime(double seconds);
   void onFrameChanged(int index);
