@@ -5,6 +5,7 @@
 // of it.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <optional>
 #include <string>
@@ -120,9 +121,11 @@ void ExpectCatchesAJolt(const std::string& lens) {
   ASSERT_GT(jolt_ns, 0);
   ASSERT_FALSE(run.report.alarms.empty()) << "the jolt raises an alarm";
   const Alarm& alarm = run.report.alarms.front();
+  std::printf("alarm %.2f s after the jolt\n", 1e-9 * double(alarm.t_ns - jolt_ns));
   EXPECT_GE(alarm.t_ns, jolt_ns) << "no alarm before the jolt";
-  // The issue asks 3 s. An alarm needs two attempts off the trend on windows (2 s) after
-  // the jolt, attempts come every 0.5 s: measured 3.5-3.7 s. Asserted: 4.5 s.
+  // The issue asks 3 s. An alarm needs two consistent attempts off the trend, and windows
+  // (2 s) that straddle the jolt give no update or an estimate between the two focal
+  // lengths: measured 2.73 s (sonnar) and 3.27 s (tessar). Asserted: 4.5 s.
   EXPECT_LE(alarm.t_ns - jolt_ns, int64_t(4.5e9)) << "the alarm soon after the jolt";
   // Within 10 s the output is back within 0.5% of the new focal length, and stays there.
   const GroundTruthReport& truth = *run.report.truth;
