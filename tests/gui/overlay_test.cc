@@ -24,6 +24,7 @@
 #include "pipeline/rectifier.h"
 #include "tests/gui/screenshot.h"
 #include "widgets/calibration_plots.h"
+#include "widgets/calibration_series.h"
 #include "widgets/main_window.h"
 #include "widgets/pipeline_controller.h"
 #include "widgets/playback_controller.h"
@@ -332,12 +333,22 @@ void OverlayTest::CheckLayers(const QString& source, const std::vector<OverlayLa
   if (std::find(layers.begin(), layers.end(), OverlayLayer::kBoards) != layers.end()) {
     QVERIFY(window->sceneView()->scene().has_value());
   }
+  const std::string run_history = window->calibrationPlots()->series()->path;
+  QCOMPARE(QString::fromStdString(run_history), pipeline.historyPath());
   OverlayLayers all;
   for (const OverlayLayer layer : kAllOverlayLayers) all |= layer;
   SetLayers(*window, all);
   const QString name = source.section(QLatin1Char(','), 0, 0).section(QLatin1Char(':'), 1);
   SaveScreenshot(Grab(view), QStringLiteral("overlay_all_%1.png").arg(name));
   SaveScreenshot(window->grab().toImage(), QStringLiteral("workbench_overlays_%1.png").arg(name));
+
+  // Another recording: its run starts afresh, and this run's history leaves the docks.
+  QSignalSpy started(&pipeline, &PipelineController::started);
+  window->open(QStringLiteral("sim:office,seconds=1,resolution=160x120"));
+  QVERIFY(started.wait(kOpenTimeoutMs));
+  QVERIFY(pipeline.snapshot(0) == nullptr || pipeline.snapshot(0)->working.width == 160);
+  const CalibrationSeries* shown = window->calibrationPlots()->series();
+  QVERIFY(shown == nullptr || shown->path != run_history);
 }
 
 void OverlayTest::rectifiedViewIsBox3sImage() {
