@@ -591,7 +591,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
          << result.rms_px << " px over " << result.observations_used << " observations of "
          << result.points_used << " points on " << result.planes_used << " planes in "
          << result.frames_used << " frames, " << result.lines_used << " lines, rotation spread "
-         << result.rotation_spread_deg << " deg";
+         << result.rotation_spread_deg << " deg; " << summary.iterations.size() - 1
+         << " iterations";
   result.reason = report.str();
   return result;
 }
