@@ -44,8 +44,10 @@ set -e
   >"$dir/out2" 2>/dev/null || fail "a run from the exported prior"
 grep -qE '^prior +fx 20[0-9]\.' "$dir/out2" || fail "prior printed: $(cat "$dir/out2")"
 
-"$autocal" run --print-settings | grep -q '^material.window_s = ' || fail "--print-settings"
+# To a file first: grep -q stops reading at the first match, and under pipefail the
+# writer's broken pipe would fail the line.
 "$autocal" run --print-settings >"$dir/s.settings"
+grep -q '^material.window_s = ' "$dir/s.settings" || fail "--print-settings"
 sed -i 's/^material.window_s = .*/material.window_s = 3/' "$dir/s.settings"
 "$autocal" run --settings "$dir/s.settings" --set material.max_lines=10 --print-settings \
   >"$dir/s2.settings"
