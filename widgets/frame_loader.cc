@@ -38,6 +38,9 @@ void FrameLoader::request(int index) {
   if (!sequence_ || index < 0 || static_cast<size_t>(index) >= sequence_->frame_count()) return;
   if (const QImage* cached = cache_.object(index)) {
     pending_.reset();
+    // The frame being decoded is older than this one: showing it afterwards would leave
+    // the view on the wrong frame.
+    if (busy_) in_flight_superseded_ = true;
     emit frameReady(index, *cached);
     return;
   }
@@ -50,6 +53,7 @@ void FrameLoader::request(int index) {
 
 void FrameLoader::start(int index) {
   busy_ = true;
+  in_flight_superseded_ = false;
   watcher_.setFuture(
       QtConcurrent::run([sequence = sequence_, generation = generation_, index]() -> Decoded {
         Decoded decoded{generation, index, {}, {}};
@@ -72,8 +76,9 @@ void FrameLoader::onDecoded() {
     if (decoded.error.isEmpty()) {
       cache_.insert(decoded.index, new QImage(decoded.image), CostKiB(decoded.image));
       // Shown even when a newer request is pending: while scrubbing, each decoded frame
-      // is the best picture there is until the wanted one arrives.
-      emit frameReady(decoded.index, decoded.image);
+      // is the best picture there is until the wanted one arrives. Not when a newer one
+      // was shown from the cache meanwhile.
+      if (!in_flight_superseded_) emit frameReady(decoded.index, decoded.image);
     } else {
       emit frameFailed(decoded.index, decoded.error);
     }

@@ -53,6 +53,7 @@ class FrameLoader : public QObject {
   uint64_t generation_ = 0;  // Bumped by setSequence; stale results are dropped.
   QFutureWatcher<Decoded> watcher_;
   bool busy_ = false;
+  bool in_flight_superseded_ = false;  // A newer request was answered from the cache.
   std::optional<int> pending_;
   QCache<int, QImage> cache_;  // Least recently used first out; cost in KiB.
 };

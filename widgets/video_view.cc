@@ -145,6 +145,17 @@ void VideoView::paintPane(QPainter* painter, Pane pane) {
     PaintOverlay(painter, imageToWidget(pane), *overlay, layers_);
     painter->restore();
   }
+  // Side by side, which is which: at the pane's foot, over the overlay.
+  if (view_mode_ == ViewMode::kSideBySide) {
+    const QString caption = pane == Pane::kRaw ? tr("Raw") : tr("Rectified (box 3)");
+    const QFontMetricsF metrics(painter->font());
+    const QRectF box = metrics.boundingRect(caption)
+                           .translated(target.bottomLeft() + QPointF(10, -10 - metrics.descent()))
+                           .adjusted(-6, -3, 6, 3);
+    painter->fillRect(box, QColor(0, 0, 0, 170));
+    painter->setPen(QColor(235, 235, 235));
+    painter->drawText(box, Qt::AlignCenter, caption);
+  }
 }
 
 void VideoView::paintEvent(QPaintEvent* /*event*/) {

@@ -358,10 +358,21 @@ void WorkbenchTest::loaderDropsStaleRequests() {
   QCOMPARE(ready.count(), 3);
 
   // Another sequence: nothing cached from the first one is served.
-  loader.setSequence(std::make_shared<SlowSequence>());
+  const auto second = std::make_shared<SlowSequence>();
+  loader.setSequence(second);
   loader.request(0);
   QCOMPARE(ready.count(), 3);
   QTRY_COMPARE(ready.count(), 4);
+
+  // A frame still decoding when a cached one is asked for is not shown after it: the view
+  // stays on the frame asked for last.
+  loader.request(60);
+  loader.request(0);
+  QCOMPARE(ready.count(), 5);
+  QCOMPARE(ready.at(4).at(0).toInt(), 0);
+  QTRY_COMPARE(second->loads.load(), 2);  // 60 is decoding...
+  QTest::qWait(300);                       // ...and done (it takes 30 ms).
+  QCOMPARE(ready.count(), 5);
 }
 
 void WorkbenchTest::playsSeeksAndSteps() {
