@@ -549,11 +549,10 @@ void CalibrationPlots::rebuild(bool keep_view) {
     compare_legend_->setText(tr("<span style='color:%1'>compared with</span> %2")
                                  .arg(CompareColor().name(), summary(*compare_)));
   }
-  if (keep_view) {
-    scheduleRedraw();
-  } else {
-    resetZoom();
-  }
+  // Redrawn either way: resetting to a time range that has not changed draws nothing new
+  // by itself, and a history followed while it grows stays within the recording's range.
+  scheduleRedraw();
+  if (!keep_view) resetZoom();
 }
 
 std::pair<double, double> CalibrationPlots::fullRange() const {

@@ -184,6 +184,7 @@ class CalibrationPlotsTest : public QObject {
   void tableExportsHistoryAndCalibration();
   void mainWindowOpensHistory();
   void followsAHistoryBeingWritten();
+  void drawsAttemptsThatComeWithinTheTimeRange();
   void staysFastWithHoursOfHistory();
 
  private:
@@ -673,6 +674,38 @@ void CalibrationPlotsTest::followsAHistoryBeingWritten() {
   QCOMPARE(window.historyTable()->filter()->rowCount(), 25);
   // Opening was announced once; the updates are not new openings.
   QCOMPARE(opened.count(), 1);
+}
+
+// The workbench's own run: the recording sets the time origin and its ground truth the
+// time range from the start, so the attempts that come in change neither; they must be
+// drawn all the same (they were not: resetting to an unchanged range redrew nothing).
+void CalibrationPlotsTest::drawsAttemptsThatComeWithinTheTimeRange() {
+  CalibrationPlots plots;
+  plots.resize(1400, 1000);
+  plots.setTimeOrigin(kStartNs + kSecond);
+  auto truth = history_.truth;  // The recording runs a little before and after the attempts.
+  truth.insert(truth.begin(), {truth.front().first - 5 * kSecond, truth.front().second});
+  truth.emplace_back(truth.back().first + 5 * kSecond, truth.back().second);
+  plots.setGroundTruth(truth);
+  auto started = std::make_shared<CalibrationSeries>(*series_);
+  started->stored.attempts.clear();
+  started->stored.alarms.clear();
+  started->trend.clear();
+  plots.setSeries(started);
+  plots.show();
+  QVERIFY(QTest::qWaitForWindowExposed(&plots));
+  plots.redrawNow();
+  QCOMPARE(plots.chart(kFx)->markers(MarkerClass::kAccepted)->count(), 0);
+  const double start = plots.visibleStart(), end = plots.visibleEnd();
+
+  plots.setSeries(series_);
+  QCOMPARE(plots.visibleStart(), start);
+  QCOMPARE(plots.visibleEnd(), end);
+  const int accepted = static_cast<int>(std::count_if(
+      series_->stored.attempts.begin(), series_->stored.attempts.end(),
+      [](const AttemptRecord& r) { return r.verdict == Verdict::kAccepted; }));
+  QVERIFY(accepted > 0);
+  QTRY_COMPARE(plots.chart(kFx)->markers(MarkerClass::kAccepted)->count(), accepted);
 }
 
 void CalibrationPlotsTest::staysFastWithHoursOfHistory() {
