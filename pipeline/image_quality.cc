@@ -130,11 +130,13 @@ std::optional<std::string> ImageQualityGate::Judge(int64_t t_ns, const ImageQual
   why << std::fixed;
   const double blur_increase = quality.blur - usual_blur;
   const double contrast_ratio = quality.contrast_grey / std::max(usual_contrast, 1.0);
-  if (blur_increase > options_.fog_blur_increase &&
-      (contrast_ratio < options_.fog_contrast_ratio ||
-       quality.noise_grey < options_.fog_noise_ratio * usual_noise)) {
+  const int fog_signs = (blur_increase > options_.fog_blur_increase) +
+                        (contrast_ratio < options_.fog_contrast_ratio) +
+                        (quality.noise_grey < options_.fog_noise_ratio * usual_noise);
+  if (fog_signs >= 2) {
     why << "fogged (blur " << quality.blur << ", usually " << usual_blur << "; contrast "
-        << quality.contrast_grey << " grey levels, usually " << usual_contrast << ")";
+        << quality.contrast_grey << " grey levels, usually " << usual_contrast << "; noise "
+        << quality.noise_grey << ", usually " << usual_noise << ")";
   } else if (blur_increase > options_.max_blur_increase) {
     why << "blurred (" << quality.blur << ", usually " << usual_blur << ")";
   } else if (contrast_ratio < options_.min_contrast_ratio) {

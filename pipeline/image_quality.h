@@ -32,9 +32,11 @@ struct ImageQualityOptions {
   double baseline_s = 3.0;          // Good frames this far back make the usual quality.
   int min_baseline_frames = 10;     // Fewer: nothing is judged yet.
   double max_blur_increase = 0.12;  // Blur above the usual by more than this: defocus.
-  // Fog both blurs and fades, and its blur smooths the sensor noise away: blur up by this
-  // much with contrast or noise below these fractions of the usual.
-  double fog_blur_increase = 0.06;
+  // Fog blurs, fades, and its blur smooths the sensor noise away: two of these three
+  // signs at once (blur up by this much, contrast or noise below these fractions of the
+  // usual) make a frame fogged. One alone is a scene's own change (a plain wall, a quick
+  // turn, another exposure).
+  double fog_blur_increase = 0.04;
   double fog_contrast_ratio = 0.8;
   double fog_noise_ratio = 0.75;
   double min_contrast_ratio = 0.5;       // Contrast below this fraction alone: glare, fog.

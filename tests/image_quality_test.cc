@@ -50,9 +50,11 @@ TEST(ImageQuality, BlurAndContrastFollowTheImage) {
 }
 
 // The simulator's transient walk: fog over 8-11 s, a noise burst over 11-12 s. Every
-// frame in them is found degraded, and no frame outside them.
-void ExpectFindsTheBurst(const std::string& lens) {
-  const Scenario scenario = ParseScenarioSpec("transient,resolution=320x240,seconds=14,lens=" + lens);
+// frame in them is found degraded, and no frame outside them. At 640x480 the fog's blur
+// moves the blur measure less than at 320x240 (0.05 against 0.09 on its first frame).
+void ExpectFindsTheBurst(const std::string& lens, const std::string& resolution) {
+  const Scenario scenario =
+      ParseScenarioSpec("transient,seconds=14,lens=" + lens + ",resolution=" + resolution);
   const std::unique_ptr<Sequence> sequence = MakeSimulatedSequence(scenario);
   ImageQualityGate gate;
   int in_burst = 0, caught = 0, outside = 0, false_alarms = 0;
@@ -80,8 +82,8 @@ void ExpectFindsTheBurst(const std::string& lens) {
   EXPECT_EQ(false_alarms, 0) << "of " << outside << " frames outside the burst";
 }
 
-TEST(ImageQuality, GateFindsFogAndNoiseOnTessar) { ExpectFindsTheBurst("tessar"); }
-TEST(ImageQuality, GateFindsFogAndNoiseOnSonnar) { ExpectFindsTheBurst("sonnar"); }
+TEST(ImageQuality, GateFindsFogAndNoiseOnTessar640x480) { ExpectFindsTheBurst("tessar", "640x480"); }
+TEST(ImageQuality, GateFindsFogAndNoiseOnSonnar320x240) { ExpectFindsTheBurst("sonnar", "320x240"); }
 
 TEST(ImageQuality, ALastingChangeBecomesTheUsual) {
   ImageQualityOptions options;
