@@ -15,7 +15,7 @@ json_number() {  # json_number FILE KEY: the first number after "KEY":
 }
 
 # The walk, rendered first: the simulator renders 640x480 slower than real time here.
-seconds=8
+seconds=16
 "$autocal" simulate --scenario office --lens sonnar --seconds "$seconds" --resolution 640x480 \
   --set supersampling=1 --out "$dir/walk" >/dev/null 2>&1 || fail "simulate"
 frames_total=$((seconds * 30))
@@ -82,7 +82,9 @@ attempts=$(json_number "$dir/s.json" attempted)
 fx_error=$(grep -oE '"final": \{"fx_percent": -?[0-9.e+-]+' "$dir/s.json" | grep -oE -- '-?[0-9.e+-]+$')
 echo "real time: $processed of $received frames processed, $dropped dropped; fx error $fx_error%"
 # Box 10 needs the frames: from the wrong start the walk converges (fx within 1%) when the
-# pipeline takes at least 20 of its 30 frames a second. On a machine too loaded for that
+# pipeline takes at least 20 of its 30 frames a second, within about 5 s, once an alarm
+# and three consistent attempts have replaced the wrong start (16 s leaves room: on 8 s,
+# live timing once left the regime unconfirmed at the end). On a machine too loaded for that
 # the material is too thin (attempts end "focal length not observable"), and it is said.
 if [[ $((processed * 3)) -ge $((received * 2)) ]]; then
   awk "BEGIN { exit !($fx_error < 1 && $fx_error > -1) }" || fail "fx within 1% of the truth: $fx_error%"
