@@ -315,10 +315,11 @@ void Runtime::SolveLoop() {
   }
 }
 
-void PushSequence(const Sequence& sequence, Runtime* runtime) {
+void PushSequence(const Sequence& sequence, Runtime* runtime, const std::atomic<bool>* stop) {
+  const auto stopped = [stop] { return stop && stop->load(); };
   const std::vector<AccelSample>& samples = sequence.accel();
   size_t fed = 0;
-  for (size_t i = 0; i < sequence.frame_count(); ++i) {
+  for (size_t i = 0; i < sequence.frame_count() && !stopped(); ++i) {
     const int64_t t_ns = sequence.frame_time_ns(i);
     const size_t first = fed;
     while (fed < samples.size() &&
@@ -328,7 +329,7 @@ void PushSequence(const Sequence& sequence, Runtime* runtime) {
     runtime->PushAccel(std::span(samples).subspan(first, fed - first));
     runtime->PushFrame(t_ns, sequence.LoadFrame(i));
   }
-  runtime->Finish();
+  if (!stopped()) runtime->Finish();
 }
 
 }  // namespace autocal

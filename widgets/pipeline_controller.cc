@@ -168,20 +168,7 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
             }
             Run* run_;
           } published(run, runtime.get());
-          // PushSequence's feeding, with a way out between frames.
-          const std::vector<AccelSample>& samples = sequence->accel();
-          size_t fed = 0;
-          for (size_t i = 0; i < sequence->frame_count() && !run->stop; ++i) {
-            const int64_t t_ns = sequence->frame_time_ns(i);
-            const size_t first = fed;
-            while (fed < samples.size() && samples[fed].t_ns + runtime->accel_offset_ns() <=
-                                               t_ns + runtime->accel_lead_ns()) {
-              ++fed;
-            }
-            runtime->PushAccel(std::span(samples).subspan(first, fed - first));
-            runtime->PushFrame(t_ns, sequence->LoadFrame(i));
-          }
-          if (!run->stop) runtime->Finish();
+          PushSequence(*sequence, runtime.get(), &run->stop);
         } catch (const std::exception& e) {
           error = QString::fromStdString(e.what());
         }
