@@ -13,6 +13,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr auto kStatusInterval = std::chrono::milliseconds(250);
+// Frames kept to pair with their snapshots: more than the runtime's queues hold (live, it
+// drops the oldest beyond them).
+constexpr size_t kFramesInPipeline = 16;
 
 LiveSession::DeviceState StateOf(SourceEvent::Kind kind) {
   switch (kind) {
@@ -100,6 +103,33 @@ LiveSession::Status LiveSession::status() const {
 std::shared_ptr<const FrameSnapshot> LiveSession::latestSnapshot() const {
   std::lock_guard lock(mutex_);
   return latest_;
+}
+
+LiveSession::LiveFrame LiveSession::latestFrame() {
+  frame_announced_ = false;
+  std::lock_guard lock(mutex_);
+  return latest_frame_;
+}
+
+void LiveSession::PublishFrame(LiveFrame frame) {
+  latest_frame_ = std::move(frame);
+  if (!frame_announced_.exchange(true)) Post([this] { emit frameReady(); });
+}
+
+void LiveSession::OnSnapshot(const std::shared_ptr<const FrameSnapshot>& snapshot) {
+  std::lock_guard lock(mutex_);
+  latest_ = snapshot;
+  if (snapshot->attempt && !snapshot->attempt->boards.empty()) boards_attempt_ = snapshot->attempt;
+  // Frames before it were dropped by the runtime, or done already.
+  while (!in_pipeline_.empty() && in_pipeline_.front().t_ns < snapshot->t_ns) {
+    in_pipeline_.pop_front();
+  }
+  if (in_pipeline_.empty() || in_pipeline_.front().t_ns != snapshot->t_ns) return;
+  LiveFrame frame = std::move(in_pipeline_.front());
+  in_pipeline_.pop_front();
+  frame.snapshot = snapshot;
+  frame.boards_attempt = boards_attempt_;
+  PublishFrame(std::move(frame));
 }
 
 bool LiveSession::startRecording(const QString& dir, QString* error) {
@@ -214,12 +244,9 @@ void LiveSession::ReadLoop(std::shared_ptr<FrameSource> source,
     RuntimeOptions options;
     options.live = true;
     try {
-      runtime =
-          std::make_unique<Runtime>(*prior, accel, PipelineOptions{}, options,
-                                    [this](const std::shared_ptr<const FrameSnapshot>& snapshot) {
-                                      std::lock_guard lock(mutex_);
-                                      latest_ = snapshot;
-                                    });
+      runtime = std::make_unique<Runtime>(
+          *prior, accel, PipelineOptions{}, options,
+          [this](const std::shared_ptr<const FrameSnapshot>& snapshot) { OnSnapshot(snapshot); });
     } catch (const Error& e) {
       note = QString::fromStdString(e.what());
     }
@@ -264,10 +291,20 @@ void LiveSession::ReadLoop(std::shared_ptr<FrameSource> source,
         }
         if (branch) branch->Feed(item);  // As the devices gave it: the offset is processing's.
         switch (item.kind) {
-          case SourceItem::Kind::kFrame:
-            ++received;
+          case SourceItem::Kind::kFrame: {
+            LiveFrame frame{received++, item.t_ns, item.image, nullptr, nullptr};
+            {
+              std::lock_guard lock(mutex_);
+              if (runtime) {
+                in_pipeline_.push_back(std::move(frame));
+                if (in_pipeline_.size() > kFramesInPipeline) in_pipeline_.pop_front();
+              } else {
+                PublishFrame(std::move(frame));
+              }
+            }
             if (runtime) runtime->PushFrame(item.t_ns, item.image);  // Live: never waits.
             break;
+          }
           case SourceItem::Kind::kAccel:
             if (runtime) {
               AccelSample sample = item.accel;
@@ -314,6 +351,8 @@ void LiveSession::ReadLoop(std::shared_ptr<FrameSource> source,
   std::shared_ptr<SourceBranch> branch;
   {
     std::lock_guard lock(mutex_);
+    in_pipeline_.clear();
+    boards_attempt_.reset();
     branch = branch_;
     status_.connected = false;
     const QString why = ended ? "the source ended" : "disconnected";

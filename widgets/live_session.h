@@ -5,10 +5,11 @@
 // devices deliver, and on request records the stream to a native recording folder through
 // devices/recorder.h on another thread, fed through a SourceBranch so that a slow disk drops
 // recorded frames rather than holding capture back. widgets/device_panel.h shows and drives
-// it; the main window takes its snapshots (latestSnapshot) to draw the video.
+// it; the main window draws the live video from latestFrame() when frameReady() says so.
 #pragma once
 
 #include <atomic>
+#include <deque>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -19,6 +20,7 @@
 
 #include <QObject>
 #include <QString>
+#include <opencv2/core.hpp>
 
 #include "devices/recorder.h"
 #include "devices/source.h"
@@ -59,6 +61,17 @@ class LiveSession : public QObject {
     RecorderProgress recorded;  // The last progress of the recording (or of the last one).
   };
 
+  // A frame for the live video: the newest the pipeline has done, with its snapshot, so that
+  // the overlays drawn on it are its own; without the pipeline, the newest received.
+  struct LiveFrame {
+    uint64_t number = 0;  // Frames received before it in this session.
+    int64_t t_ns = 0;
+    cv::Mat image;  // As the source gave it (BGR or grey); shared, never written to.
+    std::shared_ptr<const FrameSnapshot> snapshot;  // Null without the pipeline.
+    // The newest attempt that placed virtual boards (their poses are box 10's views).
+    std::shared_ptr<const AttemptOutcome> boards_attempt;
+  };
+
   explicit LiveSession(QObject* parent = nullptr);
   // Stops a recording and disconnects, waiting for both (a recording's last frames are
   // written first).
@@ -95,6 +108,9 @@ class LiveSession : public QObject {
   // The newest processed frame (null before the first, or when the pipeline is not
   // running); safe from any thread, and the snapshot never changes.
   std::shared_ptr<const FrameSnapshot> latestSnapshot() const;
+  // The newest live frame (empty image before the first); safe from any thread. Taking it
+  // lets the next frameReady() be sent.
+  LiveFrame latestFrame();
 
  signals:
   void connected(const QString& description);
@@ -102,6 +118,9 @@ class LiveSession : public QObject {
   void connectFailed(const QString& message);
   // The source ended or was disconnected.
   void disconnected();
+  // A newer frame for latestFrame(). Coalesced: none is sent again until it was taken, so a
+  // slow window never queues frames.
+  void frameReady();
   // A device unplugged, back, or in error: "camera disconnected: lost /dev/video0 (...)".
   void deviceEvent(const QString& text);
   // About four times a second while connected, and after every change of state.
@@ -116,6 +135,10 @@ class LiveSession : public QObject {
   void RecordLoop(std::shared_ptr<SourceBranch> branch, QString dir);
   void JoinRecorder();
   void UpdateDeviceStatus(const SourceEvent& event);
+  // On the pipeline's thread: pairs the snapshot with its frame.
+  void OnSnapshot(const std::shared_ptr<const FrameSnapshot>& snapshot);
+  // Publishes `frame` as the newest (mutex_ held) and tells the GUI thread once.
+  void PublishFrame(LiveFrame frame);
   // Queued to the GUI thread.
   void Post(std::function<void()> call);
 
@@ -133,6 +156,11 @@ class LiveSession : public QObject {
   Status status_;
   std::shared_ptr<SourceBranch> branch_;  // The recording's feed while it runs.
   std::shared_ptr<const FrameSnapshot> latest_;
+  // Frames pushed to the pipeline and not yet done, by time, to pair with their snapshots.
+  std::deque<LiveFrame> in_pipeline_;
+  std::shared_ptr<const AttemptOutcome> boards_attempt_;
+  LiveFrame latest_frame_;
+  std::atomic<bool> frame_announced_{false};  // frameReady sent, latestFrame not yet called.
 };
 
 }  // namespace autocal

@@ -45,6 +45,7 @@
 #include "widgets/device_panel.h"
 #include "widgets/frame_loader.h"
 #include "widgets/history_table.h"
+#include "widgets/image_convert.h"
 #include "widgets/live_session.h"
 #include "widgets/pipeline_controller.h"
 #include "widgets/playback_controller.h"
@@ -283,7 +284,10 @@ void MainWindow::createOverlayControls() {
     QAction* action = overlays->addAction(OverlayLayerName(layer));
     action->setObjectName(QStringLiteral("overlay_") + OverlayLayerKey(layer));
     action->setCheckable(true);
-    action->setChecked(settings.value(kOverlayKeyPrefix + OverlayLayerKey(layer), false).toBool());
+    action->setChecked(settings
+                           .value(kOverlayKeyPrefix + OverlayLayerKey(layer),
+                                  kDefaultOverlayLayers.testFlag(layer))
+                           .toBool());
     action->setToolTip(tips[i]);
     action->setShortcut(QKeySequence(QStringLiteral("Alt+%1").arg(i + 1)));
     connect(action, &QAction::toggled, this, &MainWindow::onLayersToggled);
@@ -339,6 +343,7 @@ void MainWindow::createPipelineDocks() {
   view_menu_->insertAction(view_menu_->actions().at(5), threshold_dock->toggleViewAction());
 
   auto* session = new LiveSession(this);  // A child: closing the window ends a recording cleanly.
+  live_session_ = session;
   auto* devices_dock = new QDockWidget(tr("Devices"), this);
   devices_dock->setObjectName(QStringLiteral("devices_dock"));
   devices_dock->setWidget(new DevicePanel(session));
@@ -347,12 +352,25 @@ void MainWindow::createPipelineDocks() {
   view_menu_->insertAction(view_menu_->actions().at(6), devices_dock->toggleViewAction());
   connect(session, &LiveSession::connected, this, [this](const QString& description) {
     playback_->pause();
+    live_ = true;
     log(tr("Live: %1").arg(description));
+    // Two pipelines would halve the live one's frames on a small machine.
+    if (pipeline_->isRunning()) {
+      pipeline_->stop();
+      log(tr("The pipeline's run over the recording stopped: the live source has the machine"));
+    }
   });
+  connect(session, &LiveSession::frameReady, this, &MainWindow::onLiveFrame);
   connect(session, &LiveSession::connectFailed, this,
           [this](const QString& message) { log(tr("Could not connect: %1").arg(message), true); });
   connect(session, &LiveSession::deviceEvent, this, [this](const QString& text) { log(text); });
-  connect(session, &LiveSession::disconnected, this, [this] { log(tr("Live source ended")); });
+  connect(session, &LiveSession::disconnected, this, [this] {
+    log(tr("Live source ended"));
+    live_ = false;
+    pipeline_->endLive();
+    // The recording comes back where it was; without one the last live frame stays.
+    if (playback_->frameCount() > 0) loader_->request(playback_->frameIndex());
+  });
   // The live pipeline's newest snapshot goes where the recording's go (the 3-D view).
   connect(session, &LiveSession::statusChanged, this, [this, session] {
     std::shared_ptr<const FrameSnapshot> snapshot = session->latestSnapshot();
@@ -468,6 +486,7 @@ void MainWindow::connectControllers() {
           [this](int index) { playback_->setSpeed(speed_box_->itemData(index).toDouble()); });
 
   connect(loader_, &FrameLoader::frameReady, this, [this](int index, const QImage& image) {
+    if (live_) return;  // The live source's frames are on screen.
     video_->setFrame(index, image);
     if (start_pipeline_on_frame_) {
       start_pipeline_on_frame_ = false;
@@ -763,6 +782,18 @@ void MainWindow::onPipelineProgress() {
       pipeline_->isRunning()
           ? tr("pipeline %1 / %2 frames, %3 fps").arg(done).arg(total).arg(fps)
           : tr("pipeline done %1 / %2 frames, %3 fps").arg(done).arg(total).arg(fps));
+}
+
+void MainWindow::onLiveFrame() {
+  const LiveSession::LiveFrame frame = live_session_->latestFrame();
+  if (!live_) return;  // A frame announced before the session ended.
+  const QImage image = MatToQImage(frame.image);
+  if (image.isNull()) return;
+  const int index = static_cast<int>(frame.number);
+  video_->setFrame(index, image);
+  pipeline_->setLiveFrame(index, image, frame.snapshot, frame.boards_attempt);
+  status_position_->setText(tr("live frame %1").arg(index));
+  emit frameShown(index);
 }
 
 void MainWindow::onRateTick() {

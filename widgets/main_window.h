@@ -34,6 +34,7 @@ struct CalibrationSeries;
 class FrameLoader;
 class HistoryOpener;
 class HistoryTable;
+class LiveSession;
 struct FrameOverlays;
 struct FrameSnapshot;
 class PipelineController;
@@ -62,6 +63,8 @@ class MainWindow : public QMainWindow {
   HistoryTable* historyTable() const { return history_table_; }
   ThresholdPanel* thresholdPanel() const { return threshold_panel_; }
   SceneView* sceneView() const { return scene_view_; }
+  // The Devices dock's session: while it is connected the video view shows its frames.
+  LiveSession* liveSession() const { return live_session_; }
   // The open recording (null until one opened) and what it was opened from.
   const Sequence* sequence() const { return sequence_.get(); }
   const QString& source() const { return source_; }
@@ -121,6 +124,8 @@ class MainWindow : public QMainWindow {
   void onLayersToggled();
   void onViewModeChosen(QAction* action);
   void onPipelineProgress();
+  // The live session's newest frame goes on screen with its overlays.
+  void onLiveFrame();
   // Once a second: the display's frame rate, and the pipeline's progress.
   void onRateTick();
   void openFolderDialog();
@@ -147,6 +152,7 @@ class MainWindow : public QMainWindow {
   HistoryTable* history_table_ = nullptr;
   ThresholdPanel* threshold_panel_ = nullptr;
   SceneView* scene_view_ = nullptr;
+  LiveSession* live_session_ = nullptr;
   QDockWidget* plot_dock_ = nullptr;
   QDockWidget* calibration_dock_ = nullptr;
   QPlainTextEdit* log_ = nullptr;
@@ -166,10 +172,10 @@ class MainWindow : public QMainWindow {
   QActionGroup* view_mode_group_ = nullptr;
   // A history opened by hand stays in the docks; else they follow the pipeline's run.
   bool history_opened_by_hand_ = false;
-  bool start_pipeline_on_frame_ = false;
-  std::shared_ptr<const FrameSnapshot>
-      last_live_snapshot_;  // Forwarded last.  // A recording opened, its first frame not shown
-                            // yet.
+  bool start_pipeline_on_frame_ = false;  // A recording opened, its first frame not shown yet.
+  std::shared_ptr<const FrameSnapshot> last_live_snapshot_;  // Forwarded last.
+  // A live source is connected: the video shows its frames, not the recording's.
+  bool live_ = false;
   QTimer rate_timer_;
   QElapsedTimer rate_clock_;
   uint64_t frames_painted_at_tick_ = 0;

@@ -30,6 +30,12 @@ inline constexpr OverlayLayer kAllOverlayLayers[] = {OverlayLayer::kLines,  Over
                                                      OverlayLayer::kTracks, OverlayLayer::kPlanes,
                                                      OverlayLayer::kBoards, OverlayLayer::kGravity};
 
+// The layers on until a user chooses: what the pipeline found at a glance (planes, the
+// boards that show whether the calibration sticks, gravity). Lines, snakes and tracks are
+// dense and for engineers.
+inline const OverlayLayers kDefaultOverlayLayers =
+    OverlayLayers(OverlayLayer::kPlanes) | OverlayLayer::kBoards | OverlayLayer::kGravity;
+
 // "Lines", "Snakes", ...: the layer's name in menus.
 QString OverlayLayerName(OverlayLayer layer);
 // "lines", "snakes", ...: its key in settings and file names.

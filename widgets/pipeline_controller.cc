@@ -96,7 +96,7 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
   frame_count_ = sequence_ ? static_cast<int>(sequence_->frame_count()) : 0;
   elapsed_s_ = 0.0;
   history_path_.clear();
-  current_ = FrameOverlays{current_.index, nullptr, nullptr, nullptr, 0, false};
+  current_ = FrameOverlays{current_.index, nullptr, nullptr, nullptr, 0, false, current_.live};
   if (!sequence_) return;
 
   const SessionInfo& session = sequence_->session();
@@ -197,6 +197,7 @@ void PipelineController::onSnapshot(uint64_t generation,
   const bool placed_boards = snapshot->attempt && !snapshot->attempt->boards.empty();
   if (snapshot->attempt) attempts_.push_back(snapshot->attempt);
   emit snapshotReady(snapshot);
+  if (current_.live) return;  // The live frame on screen has its own findings.
   if (index == current_.index || placed_boards) {
     updateCurrent();
   } else if (!current_.snapshot) {
@@ -225,7 +226,7 @@ void PipelineController::onEnded(uint64_t generation, const QString& error) {
   run_->thread.join();
   run_.reset();
   current_.running = false;
-  emit overlaysChanged(current_);
+  if (!current_.live) emit overlaysChanged(current_);
   if (!error.isEmpty()) {
     emit failed(error);
   } else {
@@ -247,6 +248,7 @@ void PipelineController::evictFarthest() {
 }
 
 void PipelineController::setCurrentFrame(int index, const QImage& image) {
+  if (current_.live) return;
   current_.index = index;
   current_image_ = image;
   updateCurrent();
@@ -270,22 +272,52 @@ void PipelineController::setRectifiedWanted(bool wanted) {
   updateCurrent();
 }
 
+void PipelineController::setLiveFrame(int index, const QImage& image,
+                                      std::shared_ptr<const FrameSnapshot> snapshot,
+                                      std::shared_ptr<const AttemptOutcome> boards_attempt) {
+  current_.live = true;
+  current_.index = index;
+  current_image_ = image;
+  live_snapshot_ = std::move(snapshot);
+  live_boards_attempt_ = std::move(boards_attempt);
+  updateCurrent();
+}
+
+void PipelineController::endLive() {
+  if (!current_.live) return;
+  current_.live = false;
+  current_.index = -1;
+  current_image_ = {};
+  live_snapshot_.reset();
+  live_boards_attempt_.reset();
+}
+
+std::vector<PlacedBoard> PipelineController::BoardsOf(const AttemptOutcome& attempt,
+                                                      int64_t t_ns) {
+  std::vector<PlacedBoard> placed;
+  if (const std::optional<Eigen::Isometry3d> pose = ViewPoseAt(attempt, t_ns)) {
+    for (const VirtualBoard& board : attempt.boards) placed.push_back({board, *pose});
+  }
+  return placed;
+}
+
 std::vector<PlacedBoard> PipelineController::boardsAt(int64_t t_ns) const {
+  if (current_.live) {
+    return live_boards_attempt_ ? BoardsOf(*live_boards_attempt_, t_ns)
+                                : std::vector<PlacedBoard>();
+  }
   for (auto attempt = attempts_.rbegin(); attempt != attempts_.rend(); ++attempt) {
     if ((*attempt)->boards.empty()) continue;
-    if (const std::optional<Eigen::Isometry3d> pose = ViewPoseAt(**attempt, t_ns)) {
-      std::vector<PlacedBoard> placed;
-      for (const VirtualBoard& board : (*attempt)->boards) placed.push_back({board, *pose});
-      return placed;
-    }
+    std::vector<PlacedBoard> placed = BoardsOf(**attempt, t_ns);
+    if (!placed.empty()) return placed;
   }
   return {};
 }
 
 void PipelineController::updateCurrent() {
-  current_.pipeline_frames_done = frames_done_;
-  current_.running = running_;
-  current_.snapshot = snapshot(current_.index);
+  current_.pipeline_frames_done = current_.live ? 0 : frames_done_;
+  current_.running = !current_.live && running_;
+  current_.snapshot = current_.live ? live_snapshot_ : snapshot(current_.index);
   current_.raw.reset();
   current_.rectified.reset();
   if (current_.snapshot) {

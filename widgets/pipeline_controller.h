@@ -47,6 +47,7 @@ struct FrameOverlays {
   std::shared_ptr<const OverlayGeometry> rectified;  // On the rectified one, when asked.
   int pipeline_frames_done = 0;                      // How far the pipeline is.
   bool running = false;                              // Whether it is still going.
+  bool live = false;  // A live source's frame (LiveSession), not the recording's.
 };
 
 class PipelineController : public QObject {
@@ -88,6 +89,14 @@ class PipelineController : public QObject {
   void setCurrentFrame(int index, const QImage& image);
   // Whether the rectified image and its overlay are wanted.
   void setRectifiedWanted(bool wanted);
+  // Live: a live source's frame `image`, numbered `index`, is on screen instead of the
+  // recording's, with its own `snapshot` (null when no pipeline runs on the source) and the
+  // boards of `boards_attempt`. The recording's run and snapshots are left as they are.
+  void setLiveFrame(int index, const QImage& image,
+                    std::shared_ptr<const autocal::FrameSnapshot> snapshot,
+                    std::shared_ptr<const autocal::AttemptOutcome> boards_attempt);
+  // Back to the recording: its next setCurrentFrame is shown.
+  void endLive();
   // Options for the run under way, from its next frame (Runtime::SetOptions), and for the
   // runs after it. What the runtime refuses (acceptance thresholds during a run) is said by
   // optionsRefused and applies from the next run.
@@ -129,6 +138,7 @@ class PipelineController : public QObject {
   void updateCurrent();
   // The boards of the newest attempt whose views reach frame time `t_ns`.
   std::vector<PlacedBoard> boardsAt(int64_t t_ns) const;
+  static std::vector<PlacedBoard> BoardsOf(const AttemptOutcome& attempt, int64_t t_ns);
   void requestRectified();
   void onRectified();
 
@@ -150,6 +160,9 @@ class PipelineController : public QObject {
 
   FrameOverlays current_;
   QImage current_image_;
+  // Live (current_.live): the frame's snapshot, and the attempt whose boards it shows.
+  std::shared_ptr<const FrameSnapshot> live_snapshot_;
+  std::shared_ptr<const AttemptOutcome> live_boards_attempt_;
   bool rectified_wanted_ = false;
   // One rectification at a time; a newer frame waits for it and replaces older requests.
   std::unique_ptr<Rectifier> rectifier_;

@@ -3,11 +3,13 @@
 #include <QFont>
 #include <QFontMetricsF>
 #include <QPainter>
+#include <QRegularExpression>
 
 namespace autocal {
 namespace {
 
 constexpr double kPaneGap = 4.0;  // Between the panes side by side, px.
+constexpr double kUnfitBorderPx = 4.0;
 
 }  // namespace
 
@@ -114,6 +116,7 @@ QString VideoView::pipelineNote() const {
   if (!layers_ || frame_index_ < 0 || overlays_.index != frame_index_ || overlays_.snapshot) {
     return {};
   }
+  if (overlays_.live) return tr("The pipeline is not running on the live source (see Devices)");
   if (!overlays_.running && overlays_.pipeline_frames_done == 0) {
     return tr("The pipeline is not running on this recording");
   }
@@ -125,6 +128,30 @@ QString VideoView::pipelineNote() const {
   return tr("Frame %1's findings are no longer kept (the %2 frames nearest the one on screen are)")
       .arg(frame_index_)
       .arg(PipelineController::kMaxStoredSnapshots);
+}
+
+QColor VideoView::UnfitColor() { return {230, 110, 0}; }
+
+QString VideoView::unfitNote() const {
+  if (!layers_ || frame_index_ < 0 || overlays_.index != frame_index_ || !overlays_.snapshot ||
+      overlays_.snapshot->degraded.empty()) {
+    return {};
+  }
+  QString why = QString::fromStdString(overlays_.snapshot->degraded);
+  why.remove(QRegularExpression(QStringLiteral("^image degraded: ")));
+  return tr("Unfit to measure from: %1").arg(why);
+}
+
+void VideoView::paintNote(QPainter* painter, const QString& note, const QColor& background) {
+  const QRectF image = imageRect();
+  const QRectF room = image.adjusted(10, 10, -10, -10);
+  const QFontMetricsF metrics(painter->font());
+  const QRectF text = metrics.boundingRect(room, Qt::AlignLeft | Qt::AlignTop | Qt::TextWordWrap,
+                                           note);
+  const QRectF box = text.adjusted(-6, -3, 6, 3);
+  painter->fillRect(box, background);
+  painter->setPen(QColor(245, 245, 245));
+  painter->drawText(text, Qt::AlignLeft | Qt::AlignTop | Qt::TextWordWrap, note);
 }
 
 void VideoView::paintPane(QPainter* painter, Pane pane) {
@@ -172,13 +199,21 @@ void VideoView::paintEvent(QPaintEvent* /*event*/) {
       if (showsPane(pane)) paintPane(&painter, pane);
     }
     const QString note = pipelineNote();
-    if (!note.isEmpty()) {
-      const QFontMetricsF metrics(painter.font());
-      const QPointF corner = imageRect().topLeft() + QPointF(10, 10 + metrics.ascent());
-      const QRectF box = metrics.boundingRect(note).translated(corner).adjusted(-6, -3, 6, 3);
-      painter.fillRect(box, QColor(0, 0, 0, 170));
-      painter.setPen(QColor(235, 235, 235));
-      painter.drawText(box, Qt::AlignCenter, note);
+    if (!note.isEmpty()) paintNote(&painter, note, QColor(0, 0, 0, 170));
+    const QString unfit = unfitNote();
+    if (!unfit.isEmpty()) {
+      // A border round every pane shown, so that an unfit stretch is seen while playing.
+      painter.setPen(QPen(UnfitColor(), kUnfitBorderPx, Qt::SolidLine, Qt::SquareCap,
+                          Qt::MiterJoin));
+      painter.setBrush(Qt::NoBrush);
+      for (const Pane pane : {Pane::kRaw, Pane::kRectified}) {
+        if (!showsPane(pane)) continue;
+        const double inset = kUnfitBorderPx / 2.0;
+        painter.drawRect(imageRect(pane).adjusted(inset, inset, -inset, -inset));
+      }
+      QColor banner = UnfitColor().darker(140);
+      banner.setAlpha(225);
+      paintNote(&painter, unfit, banner);
     }
     return;
   }

@@ -49,6 +49,12 @@ class VideoView : public QWidget {
   uint64_t paintCount() const { return paint_count_; }
   uint64_t framesPainted() const { return frames_painted_; }
 
+  // With layers on, what the view says over a frame box 9's image-quality gate found unfit
+  // ("Unfit to measure from: fogged (blur ...)"); empty for a fit frame.
+  QString unfitNote() const;
+  // The colour of the unfit frame's border and banner.
+  static QColor UnfitColor();
+
   QSize sizeHint() const override;
   QSize minimumSizeHint() const override;
 
@@ -71,6 +77,8 @@ class VideoView : public QWidget {
   void paintPane(QPainter* painter, Pane pane);
   // With layers on, what the view says over a frame the pipeline has no findings for.
   QString pipelineNote() const;
+  // A note in a dark box at the top left of the frame, wrapped to its width.
+  void paintNote(QPainter* painter, const QString& note, const QColor& background);
 
   int frame_index_ = -1;
   QImage image_;

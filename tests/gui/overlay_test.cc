@@ -177,6 +177,7 @@ class OverlayTest : public QObject {
   void init();
   void everyLayerDrawsOnItsGeometryAndNowhereElse();
   void rectifiedViewIsBox3sImage();
+  void defaultLayersShowWhatWasFound();
   void switchesPersist();  // And the threshold panel feeds the controller.
   void redrawRateWhilePipelineRuns();
 
@@ -403,11 +404,45 @@ void OverlayTest::rectifiedViewIsBox3sImage() {
           pipeline.current().rectified->tracks.front().now);
 }
 
+// A technician opening the workbench for the first time sees planes with their ids, the
+// boards and gravity drawn, not the bare video; the dense engineer's layers stay off.
+void OverlayTest::defaultLayersShowWhatWasFound() {
+  const OverlayLayers expected =
+      OverlayLayers(OverlayLayer::kPlanes) | OverlayLayer::kBoards | OverlayLayer::kGravity;
+  const auto window = OpenWindow(kSimSource);
+  QVERIFY(window);
+  VideoView& view = *window->videoView();
+  QCOMPARE(view.layers(), expected);
+  for (const OverlayLayer layer : kAllOverlayLayers) {
+    QCOMPARE(window->overlayAction(layer)->isChecked(), expected.testFlag(layer));
+  }
+  // Planes are drawn, with their ids, on the first frame that has one.
+  PipelineController& pipeline = *window->pipelineController();
+  QSignalSpy finished(&pipeline, &PipelineController::finished);
+  QVERIFY(finished.wait(kPipelineTimeoutMs));
+  int with_plane = -1;
+  for (int index = 0; index < pipeline.framesDone() && with_plane < 0; ++index) {
+    const auto snapshot = pipeline.snapshot(index);
+    if (snapshot && !snapshot->motion.planes.empty()) with_plane = index;
+  }
+  QVERIFY(with_plane >= 0);
+  QVERIFY(ShowFrame(*window, with_plane));
+  const QImage drawn = Grab(view);
+  SaveScreenshot(drawn, QStringLiteral("overlay_defaults.png"));
+  const OverlayGeometry& overlay = *pipeline.current().raw;
+  const LayerFootprint footprint =
+      Footprint(overlay, OverlayLayer::kPlanes, view.imageToWidget(VideoView::Pane::kRaw),
+                drawn.size());
+  SetLayers(*window, {});
+  const Changes changes = Compare(Grab(view), drawn, footprint, view.imageRect());
+  QVERIFY(changes.anchors > 0);
+  QVERIFY(changes.anchors_hit >= 0.9);
+}
+
 void OverlayTest::switchesPersist() {
   {
     MainWindow window;
-    window.overlayAction(OverlayLayer::kSnakes)->setChecked(true);
-    window.overlayAction(OverlayLayer::kGravity)->setChecked(true);
+    SetLayers(window, OverlayLayer::kSnakes | OverlayLayer::kGravity);
     window.viewModeAction(VideoView::ViewMode::kSideBySide)->trigger();
   }
   MainWindow window;
