@@ -38,6 +38,10 @@ constexpr int kMarkerSize = 8;
 constexpr int kDragThreshold = 4;
 constexpr double kMinSpanSeconds = 0.05;
 constexpr int kMinChartHeight = 110;
+// The no-update row: its marks' size, and their height above the chart's foot as a
+// fraction of the value range shown.
+constexpr int kNoUpdateMarkerSize = 7;
+constexpr double kNoUpdateRowHeight = 0.04;
 
 std::optional<MarkerClass> MarkerOf(Verdict verdict) {
   switch (verdict) {
@@ -145,6 +149,7 @@ QColor TrendColor() { return {31, 119, 180}; }
 QColor TruthColor() { return {120, 120, 120}; }
 QColor AlarmColor() { return {148, 103, 189}; }
 QColor CompareColor() { return {140, 86, 75}; }
+QColor NoUpdateColor() { return {150, 150, 150}; }
 
 CalibrationChart::CalibrationChart(int channel, QWidget* parent)
     : QChartView(parent), channel_(channel) {
@@ -199,6 +204,12 @@ CalibrationChart::CalibrationChart(int channel, QWidget* parent)
     markers_[m] = series;
     add(series);
   }
+  no_updates_ = new QScatterSeries;
+  no_updates_->setMarkerShape(QScatterSeries::MarkerShapeRectangle);
+  no_updates_->setMarkerSize(kNoUpdateMarkerSize);
+  no_updates_->setColor(NoUpdateColor());
+  no_updates_->setBorderColor(NoUpdateColor().darker(130));
+  add(no_updates_);
   cursor_ = new QLineSeries;
   cursor_->setPen(QPen(QColor(20, 20, 20), 1.5));
   add(cursor_);
@@ -228,6 +239,7 @@ void CalibrationChart::setAlarmCount(int count) {
   if (count == 0) return;
   // The alarm lines go under the markers and the cursor, which are taken off and put back.
   std::vector<QAbstractSeries*> on_top(markers_.begin(), markers_.end());
+  on_top.push_back(no_updates_);
   on_top.push_back(cursor_);
   for (QAbstractSeries* series : on_top) c->removeSeries(series);
   for (int i = 0; i < count; ++i) {
@@ -320,6 +332,7 @@ CalibrationPlots::CalibrationPlots(QWidget* parent) : QWidget(parent) {
   legend->addWidget(LegendEntry(tr("filtered (trend)"), TrendColor(), Sample::kLine));
   legend->addWidget(LegendEntry(tr("ground truth"), TruthColor(), Sample::kDashed));
   legend->addWidget(LegendEntry(tr("alarm"), AlarmColor(), Sample::kDashed));
+  legend->addWidget(LegendEntry(tr("no update"), NoUpdateColor(), Sample::kSquare));
   auto* header = new QVBoxLayout;
   header->setSpacing(0);
   header->addLayout(legend);
@@ -354,6 +367,10 @@ CalibrationPlots::CalibrationPlots(QWidget* parent) : QWidget(parent) {
                 showTooltip(channel, marker, point, state);
               });
     }
+    connect(chart->noUpdates(), &QScatterSeries::hovered, this,
+            [this, channel](const QPointF& point, bool state) {
+              showTooltipText(channel, describeAttempt(noUpdateAt(point.x()), channel), state);
+            });
   }
   // The time axis is named under the bottom row only, to leave the rest to the curves.
   for (int channel = kNumCalibrationChannels - 2; channel < kNumCalibrationChannels; ++channel) {
@@ -474,9 +491,15 @@ void CalibrationPlots::rebuild(bool keep_view) {
   for (auto& channel : points_) {
     for (Points& p : channel) p = {};
   }
+  no_updates_ = {};
   for (const AttemptRecord& record : attempts) {
     const std::optional<MarkerClass> marker = MarkerOf(record.verdict);
-    if (!marker) continue;
+    if (!marker) {
+      no_updates_.t.push_back(toSeconds(record.t_ns));
+      no_updates_.v.push_back(0.0);
+      no_updates_.id.push_back(record.id);
+      continue;
+    }
     for (int channel = 0; channel < kNumCalibrationChannels; ++channel) {
       const double value = ChannelValue(record, channel);
       // A parameter the attempt held at its prior tells nothing: only estimates are marked.
@@ -569,6 +592,7 @@ std::pair<double, double> CalibrationPlots::fullRange() const {
   extend(trend_[0].t);
   extend(truth_lines_[0].t);
   for (const Points& p : compare_points_) extend(p.t);
+  extend(no_updates_.t);
   extend(compare_trend_[0].t);
   extend(alarm_t_);
   if (!(lo <= hi)) return {0.0, 1.0};
@@ -622,9 +646,21 @@ int CalibrationPlots::attemptAt(int channel, MarkerClass marker, const QPointF& 
   return -1;
 }
 
+int CalibrationPlots::noUpdateAt(double t_s) const {
+  const auto it = std::lower_bound(no_updates_.t.begin(), no_updates_.t.end(), t_s);
+  if (it == no_updates_.t.end() || *it != t_s) return -1;
+  return no_updates_.id[static_cast<size_t>(it - no_updates_.t.begin())];
+}
+
 QString CalibrationPlots::describeAttempt(int id, int channel) const {
   if (!series_ || id < 0 || id >= static_cast<int>(series_->stored.attempts.size())) return {};
   const AttemptRecord& record = series_->stored.attempts[static_cast<size_t>(id)];
+  if (!MarkerOf(record.verdict)) {  // No estimate to give.
+    return tr("attempt %1 at %2 s: %3")
+        .arg(record.id)
+        .arg(toSeconds(record.t_ns), 0, 'f', 3)
+        .arg(QString::fromStdString(record.reason));
+  }
   return tr("attempt %1 at %2 s: %3\n%4 = %5\n%6")
       .arg(record.id)
       .arg(toSeconds(record.t_ns), 0, 'f', 3)
@@ -635,11 +671,14 @@ QString CalibrationPlots::describeAttempt(int id, int channel) const {
 
 void CalibrationPlots::showTooltip(int channel, MarkerClass marker, const QPointF& point,
                                    bool state) {
+  showTooltipText(channel, describeAttempt(attemptAt(channel, marker, point), channel), state);
+}
+
+void CalibrationPlots::showTooltipText(int channel, const QString& text, bool state) {
   if (!state) {
     QToolTip::hideText();
     return;
   }
-  const QString text = describeAttempt(attemptAt(channel, marker, point), channel);
   if (!text.isEmpty()) QToolTip::showText(QCursor::pos(), text, charts_[channel]);
 }
 
@@ -753,6 +792,9 @@ void CalibrationPlots::redraw() {
       chart.alarms()[i]->replace(QVector<QPointF>{{alarm_t_[i], lo}, {alarm_t_[i], hi}});
     }
     chart.cursor()->replace(QVector<QPointF>{{cursor_s_, lo}, {cursor_s_, hi}});
+    QVector<QPointF> no_updates = decimate(no_updates_.t, no_updates_.v);
+    for (QPointF& point : no_updates) point.setY(lo + kNoUpdateRowHeight * (hi - lo));
+    chart.noUpdates()->replace(no_updates);
   }
 }
 

@@ -37,7 +37,8 @@ using QtCharts::QValueAxis;
 #endif
 
 // How an attempt is marked: accepted, rejected, or off the trend in a way that raised an
-// alarm or started a new regime. "No update" attempts have no estimate to draw.
+// alarm or started a new regime. "No update" attempts have no estimate to draw: each chart
+// marks them apart, in a row along its foot (CalibrationChart::noUpdates).
 enum class MarkerClass { kAccepted, kRejected, kJump };
 inline constexpr int kNumMarkerClasses = 3;
 
@@ -46,6 +47,7 @@ QColor MarkerColor(MarkerClass marker);
 QColor TrendColor();
 QColor TruthColor();
 QColor AlarmColor();
+QColor NoUpdateColor();
 // The compared run: its trend dash-dotted, the attempts it took as hollow circles.
 QColor CompareColor();
 
@@ -62,6 +64,9 @@ class CalibrationChart : public QChartView {
   QLineSeries* trend() const { return trend_; }
   QLineSeries* truth() const { return truth_; }
   QLineSeries* cursor() const { return cursor_; }
+  // The attempts that made no update (unfit images, too little motion, ...), at their times
+  // along the foot of the chart, whatever the value axis shows.
+  QScatterSeries* noUpdates() const { return no_updates_; }
   // The compared run's trend and the attempts it took (accepted, alarm, new regime).
   QLineSeries* compareTrend() const { return compare_trend_; }
   QScatterSeries* compareMarkers() const { return compare_markers_; }
@@ -98,6 +103,7 @@ class CalibrationChart : public QChartView {
   QValueAxis* time_axis_;
   QValueAxis* value_axis_;
   std::array<QScatterSeries*, kNumMarkerClasses> markers_;
+  QScatterSeries* no_updates_;
   QLineSeries* trend_;
   QLineSeries* truth_;
   QLineSeries* cursor_;
@@ -148,6 +154,8 @@ class CalibrationPlots : public QWidget {
   QString describeAttempt(int id, int channel) const;
   // The attempt drawn at `point` (time, value) of `marker` in `channel`; -1 when none.
   int attemptAt(int channel, MarkerClass marker, const QPointF& point) const;
+  // The no-update attempt drawn at time `t_s`; -1 when none.
+  int noUpdateAt(double t_s) const;
 
   // Saves the charts and the legend as PNG or SVG, by the file's suffix. On failure returns
   // false with the reason in `error`.
@@ -186,6 +194,7 @@ class CalibrationPlots : public QWidget {
   void zoom(double t_s, double factor);
   void pan(double dt_s);
   void showTooltip(int channel, MarkerClass marker, const QPointF& point, bool state);
+  void showTooltipText(int channel, const QString& text, bool state);
   void scheduleRedraw();
   void redraw();
   double toSeconds(int64_t t_ns) const;
@@ -197,6 +206,7 @@ class CalibrationPlots : public QWidget {
   int64_t origin_ns_ = 0;
   bool origin_set_ = false;
   std::array<std::array<Points, kNumMarkerClasses>, kNumCalibrationChannels> points_;
+  Points no_updates_;  // Values unused: the row sits at each chart's foot.
   std::array<Line, kNumCalibrationChannels> trend_;
   std::array<Line, kNumCalibrationChannels> truth_lines_;
   std::array<Points, kNumCalibrationChannels> compare_points_;

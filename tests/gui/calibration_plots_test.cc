@@ -178,6 +178,7 @@ class CalibrationPlotsTest : public QObject {
   void replayReproducesTheFile();
   void markersDrawnWhereTheValuesAre();
   void hoverShowsVerdictAndReason();
+  void noUpdatesMarkedAtTheFoot();
   void zoomPanSeekAndCursor();
   void exportsPngAndSvg();
   void tableFiltersAndSorts();
@@ -384,6 +385,45 @@ void CalibrationPlotsTest::hoverShowsVerdictAndReason() {
   QTest::mouseMove(fx.viewport(), at);
   QTRY_VERIFY(QToolTip::isVisible());
   QCOMPARE(QToolTip::text(), text);
+}
+
+// Attempts that made no update have no value to plot: each chart marks them in a grey row
+// along its foot at their times, and hovering one tells why.
+void CalibrationPlotsTest::noUpdatesMarkedAtTheFoot() {
+  const auto plots = ShowPlots();
+  QVERIFY(plots);
+  std::vector<const AttemptRecord*> none;
+  for (const AttemptRecord& record : series_->stored.attempts) {
+    if (record.verdict == Verdict::kNoUpdate) none.push_back(&record);
+  }
+  QCOMPARE(int(none.size()), history_.counts[Verdict::kNoUpdate]);
+  for (const int channel : {int(kFx), int(kK2), kRmsChannel}) {
+    CalibrationChart& chart = *plots->chart(channel);
+    const QVector<QPointF> drawn = chart.noUpdates()->pointsVector();
+    QCOMPARE(drawn.size(), int(none.size()));
+    const QImage image = chart.grab().toImage();
+    const double lo = chart.valueAxis()->min(), hi = chart.valueAxis()->max();
+    for (size_t i = 0; i < none.size(); ++i) {
+      const double t = double(none[i]->t_ns - plots->timeOrigin()) * 1e-9;
+      QCOMPARE(drawn[int(i)].x(), t);
+      // In the lowest tenth of the chart, whatever its values.
+      QVERIFY(drawn[int(i)].y() >= lo && drawn[int(i)].y() < lo + 0.1 * (hi - lo));
+      QVERIFY(DrawnNear(image, chart.positionOf(t, drawn[int(i)].y()), NoUpdateColor()));
+      QCOMPARE(plots->noUpdateAt(t), none[i]->id);
+    }
+  }
+  const QString text = plots->describeAttempt(none.front()->id, kFx);
+  QVERIFY2(text.contains(QStringLiteral("no update: insufficient rotation")), qPrintable(text));
+
+  // A real hover over the first one brings its reason up.
+  CalibrationChart& fx = *plots->chart(kFx);
+  const QPointF first = fx.noUpdates()->pointsVector().front();
+  const QPoint at = fx.positionOf(first.x(), first.y());
+  QTest::mouseMove(fx.viewport(), at + QPoint(0, -30));
+  QTest::mouseMove(fx.viewport(), at);
+  QTRY_VERIFY(QToolTip::isVisible());
+  QCOMPARE(QToolTip::text(), text);
+  QVERIFY(plots->grab().save(ScreenshotPath(QStringLiteral("calibration_plots_no_update.png"))));
 }
 
 void CalibrationPlotsTest::zoomPanSeekAndCursor() {
