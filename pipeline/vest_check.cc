@@ -39,6 +39,17 @@ std::optional<VestNeed> NeedFromReason(const std::string& reason) {
   return std::nullopt;
 }
 
+// What the technician can do about images box 9 found unfit, from its reason
+// ("image degraded: fogged (...)", "... noisy (...)").
+std::string UnfitGuidance(const std::string& degraded) {
+  const auto has = [&](const char* text) { return degraded.find(text) != std::string::npos; };
+  if (has("fogged") || has("blurred") || has("low contrast")) {
+    return "Image fogged or blurred: wipe the lens";
+  }
+  if (has("noisy")) return "Image noisy: move to where there is more light";
+  return "Image unfit to measure from: check the camera";
+}
+
 std::string GuidanceFor(VestNeed need, const VestCheckOptions& options, int planes_now,
                         int accepted) {
   switch (need) {
@@ -106,10 +117,14 @@ VestCheck::VestCheck(const CameraIntrinsics& premission, const VestCheckOptions&
 }
 
 void VestCheck::Add(const FrameSnapshot& snapshot) {
+  const bool unfit = !snapshot.degraded.empty();
+  newest_degraded_ = snapshot.degraded;
+  if (unfit && first_degraded_.empty()) first_degraded_ = snapshot.degraded;
   if (last_ns_) {
     const double dt = 1e-9 * double(snapshot.t_ns - *last_ns_);
     elapsed_s_ = 1e-9 * double(snapshot.t_ns - *first_ns_);
-    if (dt > 0 && dt <= options_.max_frame_gap_s) {
+    if (unfit && dt > 0 && dt <= options_.max_frame_gap_s) unfit_s_ += dt;
+    if (!unfit && dt > 0 && dt <= options_.max_frame_gap_s) {
       switch (snapshot.inertial.motion) {
         case MotionClass::kRotate:
           rotate_s_ += dt;
@@ -132,8 +147,8 @@ void VestCheck::Add(const FrameSnapshot& snapshot) {
   // A plane seen at an angle: its normal turned while it was followed; or two planes with
   // different orientations in one view.
   const std::vector<DominantPlane>& planes = snapshot.motion.planes;
-  planes_now_ = int(planes.size());
-  for (size_t a = 0; a < planes.size(); ++a) {
+  planes_now_ = unfit ? 0 : int(planes.size());
+  for (size_t a = 0; a < size_t(planes_now_); ++a) {
     if (!planes[a].normal) continue;
     const Eigen::Vector3d& first =
         first_normal_.try_emplace(planes[a].id, *planes[a].normal).first->second;
@@ -229,6 +244,7 @@ double VestCheck::Progress() const {
 
 std::string VestCheck::Guidance() const {
   if (frames_ == 0) return "Stand facing a textured wall and hold still";
+  if (!newest_degraded_.empty()) return UnfitGuidance(newest_degraded_);
   const int accepted = AcceptedInRegime();
   // While updates are missing, what box 10 said of the newest attempt comes first: it is
   // what the walk lacked just now.
@@ -297,6 +313,14 @@ VestCheckResult VestCheck::Result() const {
     if (!status.done && status.required && status.need != VestNeed::kUpdates) {
       result.reasons.push_back("missing: " + status.name + " (" + status.measured + ")");
     }
+  }
+  result.unfit_s = unfit_s_;
+  // Why the walk fell short, when part of it was lost to the images.
+  if (!result.reasons.empty() && unfit_s_ > 0.0) {
+    std::string advice = UnfitGuidance(first_degraded_);
+    advice[0] = char(std::tolower(advice[0]));
+    result.reasons.push_back("the images were unfit for " + Fixed(unfit_s_, 1) +
+                             " s of the walk, which did not count (" + advice + ")");
   }
   if (!result.reasons.empty()) {
     result.verdict = VestVerdict::kInconclusive;

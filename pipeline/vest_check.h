@@ -91,6 +91,8 @@ struct VestCheckResult {
   int attempts = 0;  // Box 10's attempts judged, and by verdict.
   std::map<Verdict, int> verdicts;
   int accepted_in_regime = 0;
+  // Walk time whose images box 9 found unfit (fog, noise): it counts towards no need.
+  double unfit_s = 0.0;
   std::vector<std::string> alarms;  // "2.5 s: jump in fx ..." (the attempts that raised one).
 };
 
@@ -99,7 +101,8 @@ class VestCheck {
   // Throws Error when the options or the pre-mission calibration are not valid.
   VestCheck(const CameraIntrinsics& premission, const VestCheckOptions& options = {});
 
-  // Every frame's snapshot, in frame order.
+  // Every frame's snapshot, in frame order. A frame box 9 found unfit (snapshot.degraded)
+  // counts as walk time but towards no need: its motion and planes are not material.
   void Add(const FrameSnapshot& snapshot);
 
   // What is covered so far, in VestNeed order.
@@ -108,7 +111,8 @@ class VestCheck {
   bool Complete() const;
   // 0-1: the walk's share of what the calibration requires.
   double Progress() const;
-  // One line for the technician: what to do now ("Turn slowly left and right").
+  // One line for the technician: what to do now ("Turn slowly left and right"; while the
+  // images are unfit, what to do about them: "Image fogged or blurred: wipe the lens").
   std::string Guidance() const;
   double elapsed_s() const { return elapsed_s_; }
 
@@ -129,6 +133,9 @@ class VestCheck {
   int frames_ = 0;
   double elapsed_s_ = 0.0;
   double rotate_s_ = 0.0, translate_s_ = 0.0, still_s_ = 0.0;
+  double unfit_s_ = 0.0;
+  std::string newest_degraded_;  // Why the newest frame is unfit; empty when it is fit.
+  std::string first_degraded_;   // Why the first unfit frame of the walk was.
   double plane_angle_deg_ = 0.0;
   int line_shapes_ = 0;
   int planes_now_ = 0;

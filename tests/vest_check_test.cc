@@ -84,6 +84,53 @@ FrameSnapshot Judged(double t_s, Verdict verdict, const std::string& reason, int
   return snapshot;
 }
 
+// A frame at `t_s`, turning, with two planes whose normals are `angle_deg` apart, and why
+// box 9 found it unfit (empty: fit).
+FrameSnapshot Turning(double t_s, double angle_deg, const std::string& degraded) {
+  FrameSnapshot snapshot;
+  snapshot.t_ns = int64_t(std::llround(t_s * 1e9));
+  snapshot.inertial.motion = MotionClass::kRotate;
+  snapshot.degraded = degraded;
+  const double a = angle_deg * M_PI / 180.0;
+  DominantPlane wall, floor;
+  wall.id = 1;
+  wall.normal = Eigen::Vector3d(0, 0, -1);
+  floor.id = 2;
+  floor.normal = Eigen::Vector3d(0, -std::sin(a), -std::cos(a));
+  snapshot.motion.planes = {wall, floor};
+  return snapshot;
+}
+
+// Fogged or noisy frames are no material: their turning and their planes count for nothing,
+// the guidance says what to do about the images, and a walk left short says why.
+TEST(VestCheck, UnfitImagesAreNotMaterialAndAskToWipeTheLens) {
+  const CameraIntrinsics premission = CameraIntrinsics::FromFieldOfView(320, 240, 75);
+  VestCheck check(premission);
+  const std::string fogged =
+      "image degraded: fogged (blur 0.34, usually 0.23; contrast 70.00 grey levels, usually "
+      "108.00; noise 1.06, usually 1.69)";
+  int frame = 0;
+  for (; frame < 60; ++frame) check.Add(Turning(frame / 30.0, 40.0, fogged));
+  EXPECT_EQ(check.Guidance(), "Image fogged or blurred: wipe the lens");
+  EXPECT_EQ(check.Coverage()[int(VestNeed::kRotation)].measured, "0.0 of 2.0 s");
+  EXPECT_EQ(check.Coverage()[int(VestNeed::kPlanes)].measured, "0 of 20 deg");
+  EXPECT_NEAR(check.elapsed_s(), 59 / 30.0, 1e-9);  // Walk time all the same.
+  check.Add(Turning(frame++ / 30.0, 40.0, "image degraded: noisy (21.30 grey levels, usually 1.70)"));
+  EXPECT_EQ(check.Guidance(), "Image noisy: move to where there is more light");
+
+  // Clear again: the same motion counts.
+  for (const int end = frame + 75; frame < end; ++frame) check.Add(Turning(frame / 30.0, 40.0, ""));
+  EXPECT_TRUE(check.Coverage()[int(VestNeed::kRotation)].done);
+  EXPECT_TRUE(check.Coverage()[int(VestNeed::kPlanes)].done);
+  EXPECT_EQ(check.Guidance().find("Image"), std::string::npos) << check.Guidance();
+  const VestCheckResult result = check.Result();
+  EXPECT_NEAR(result.unfit_s, 60 / 30.0, 1e-9);
+  EXPECT_EQ(result.verdict, VestVerdict::kInconclusive);  // No update yet.
+  EXPECT_EQ(result.reasons.back(),
+            "the images were unfit for 2.0 s of the walk, which did not count (image fogged or "
+            "blurred: wipe the lens)");
+}
+
 // What box 10 and the history said of the newest attempt decides the guidance while
 // updates are missing; an alarm not yet confirmed leaves the verdict open.
 TEST(VestCheck, GuidanceFollowsWhatTheHistorySaid) {

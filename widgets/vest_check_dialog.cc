@@ -172,6 +172,7 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   verdict_->setObjectName(QStringLiteral("verdict"));
   result_layout->addWidget(verdict_);
   summary_ = new QLabel(result_page);
+  summary_->setObjectName(QStringLiteral("summary"));
   summary_->setWordWrap(true);
   summary_->setAlignment(Qt::AlignCenter);
   result_layout->addWidget(summary_);
@@ -290,10 +291,13 @@ void VestCheckDialog::ShowResult(const VestCheckResult& result) {
   verdict_->setText(QString::fromStdString(VestVerdictName(result.verdict)));
   verdict_->setStyleSheet(QStringLiteral("color: %1;").arg(QLatin1String(colour)));
   summary_->setText(QStringLiteral("<b>%1</b><br>").arg(VestVerdictAdvice(result.verdict)) +
-                    tr("%1 s walked on %2; %3 calibration updates of %4 accepted")
+                    tr("%1 s walked on %2; %3 calibration updates of %4 accepted%5")
                         .arg(QString::number(result.seconds, 'f', 1), source_description_)
                         .arg(result.accepted_in_regime)
                         .arg(result.attempts)
+                        .arg(result.unfit_s > 0.0
+                                 ? tr("; images unfit for %1 s").arg(result.unfit_s, 0, 'f', 1)
+                                 : QString())
                         .toHtmlEscaped());
   QStringList reasons;
   for (const std::string& reason : result.reasons) {

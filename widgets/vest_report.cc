@@ -99,6 +99,10 @@ QString VestReportHtml(const VestReport& report) {
                                    .arg(Number(r.seconds, 1))
                                    .arg(r.frames)
                                    .arg(Number(o.duration_s, 0)));
+  if (r.unfit_s > 0.0) {
+    info(QStringLiteral("Unfit images"),
+         QStringLiteral("%1 s (fog, blur or noise: not counted)").arg(Number(r.unfit_s, 1)));
+  }
   info(QStringLiteral("Software"), QStringLiteral("autocal %1").arg(QLatin1String(kVersion)));
   html += QStringLiteral("</table>");
 

@@ -2,6 +2,7 @@
 // its verdict, the walk and result pages saved as screenshots, the verdict shown checked
 // against the check's own, and the PDF report written and checked.
 #include <QDir>
+#include <QElapsedTimer>
 #include <QDoubleSpinBox>
 #include <QFile>
 #include <QLabel>
@@ -184,6 +185,42 @@ class VestCheckTest : public QObject {
              qPrintable(reasons));
     QVERIFY(dialog.findChild<QTableWidget*>()->isHidden());
     SaveScreenshot(dialog, QStringLiteral("vest_check_inconclusive.png"));
+  }
+
+  // Fog and a noise burst during the walk (the simulator's transient scenario, 8 to 12 s):
+  // while the images are unfit the guidance says to wipe the lens, and the unfit stretch is
+  // reported and not counted as walking.
+  void UnfitImagesAskToWipeTheLens() {
+    VestCheckDialog dialog(QStringLiteral("sim:transient,resolution=320x240,seconds=12,fps=15"));
+    dialog.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&dialog));
+    QSignalSpy finished(&dialog, &VestCheckDialog::checkFinished);
+    dialog.startCheck();
+    auto* guidance = dialog.findChild<QLabel*>(QStringLiteral("guidance"));
+    QVERIFY(guidance);
+    const QString wipe = QStringLiteral("Image fogged or blurred: wipe the lens");
+    QStringList seen;
+    QElapsedTimer clock;
+    clock.start();
+    while (finished.isEmpty() && clock.elapsed() < 180000) {
+      QTest::qWait(40);
+      if (!seen.contains(guidance->text())) {
+        seen << guidance->text();
+        if (guidance->text() == wipe) SaveScreenshot(dialog, QStringLiteral("vest_check_unfit.png"));
+      }
+    }
+    QVERIFY(!finished.isEmpty());
+    qInfo("guidance seen: %s", qPrintable(seen.join(QStringLiteral(" | "))));
+    QVERIFY(seen.contains(wipe));
+    QVERIFY(seen.indexOf(wipe) > 0);  // Not from the start: the fog comes at 8 s.
+    const VestCheckResult& result = *dialog.result();
+    qInfo("%.1f s walked, %.1f s unfit", result.seconds, result.unfit_s);
+    // Fog and noise last 4 s; the gate needs a few frames to call it.
+    QVERIFY(result.unfit_s > 2.0 && result.unfit_s <= 4.1);
+    const QString summary = dialog.findChild<QLabel*>(QStringLiteral("summary"))->text();
+    QVERIFY2(summary.contains(QStringLiteral("images unfit for")), qPrintable(summary));
+    QVERIFY(VestReportHtml(dialog.report()).contains(QStringLiteral("Unfit images")));
+    SaveScreenshot(dialog, QStringLiteral("vest_check_unfit_result.png"));
   }
 
   void ReportHoldsTheVerdictReasonsAndCoverage() {
