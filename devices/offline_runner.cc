@@ -14,9 +14,8 @@
 #include "pipeline/text_format.h"
 
 namespace autocal {
-namespace {
 
-TimingStats Stats(std::vector<double> values) {
+TimingStats TimingStatsOf(std::vector<double> values) {
   TimingStats stats;
   stats.count = static_cast<int>(values.size());
   if (values.empty()) return stats;
@@ -28,6 +27,8 @@ TimingStats Stats(std::vector<double> values) {
   stats.p95_ms = at(0.95);
   return stats;
 }
+
+namespace {
 
 // The largest magnitude of each field over `errors`, signs kept.
 CalibrationError Worst(const std::vector<CalibrationError>& errors) {
@@ -44,6 +45,8 @@ CalibrationError Worst(const std::vector<CalibrationError>& errors) {
   }
   return worst;
 }
+
+}  // namespace
 
 GroundTruthReport CompareWithTruth(const std::vector<int64_t>& times,
                                    const std::vector<CameraIntrinsics>& outputs,
@@ -68,6 +71,8 @@ GroundTruthReport CompareWithTruth(const std::vector<int64_t>& times,
   return report;
 }
 
+namespace {
+
 std::string ErrorJson(const CalibrationError& e) {
   return "{\"fx_percent\": " + JsonNumber(e.fx_percent) +
          ", \"fy_percent\": " + JsonNumber(e.fy_percent) + ", \"cx_px\": " + JsonNumber(e.cx_px) +
@@ -75,7 +80,8 @@ std::string ErrorJson(const CalibrationError& e) {
          ", \"distortion_px\": " + JsonNumber(e.distortion_px) + "}";
 }
 
-// The calibration a run starts from, checked against the frames' size.
+}  // namespace
+
 CameraIntrinsics StartingCalibration(const std::string& input, const SessionInfo& session,
                                      const RunSettings& settings) {
   CameraIntrinsics prior;
@@ -106,6 +112,25 @@ std::unique_ptr<HistoryStore> OpenNewHistory(const RunSettings& settings) {
   return store;
 }
 
+void SummarizeHistory(const CalibrationHistory& history, int64_t end_ns, RunReport* report) {
+  report->final = history.Current(end_ns);
+  report->attempts = static_cast<int>(history.attempts().size());
+  for (const AttemptRecord& attempt : history.attempts()) {
+    ++report->verdicts[attempt.verdict];
+    if (attempt.verdict == Verdict::kAccepted || attempt.verdict == Verdict::kNewRegime) {
+      report->final_rms_px = attempt.rms_px;
+    }
+    if (attempt.verdict == Verdict::kNoUpdate &&
+        std::find(report->no_update_reasons.begin(), report->no_update_reasons.end(),
+                  attempt.reason) == report->no_update_reasons.end()) {
+      report->no_update_reasons.push_back(attempt.reason);
+    }
+  }
+  report->alarms = history.alarms();
+}
+
+namespace {
+
 // What the runtime's frames say, gathered on its boxes 4-9 thread.
 struct FrameLog {
   std::map<std::string, std::vector<double>> times;
@@ -135,23 +160,9 @@ void CompleteReport(const Runtime& runtime, FrameLog log,
   if (log.t_ns.size() > 1) report->seconds = 1e-9 * double(log.t_ns.back() - log.t_ns.front());
   report->fps = report->wall_seconds > 0 ? double(report->frames) / report->wall_seconds : 0.0;
 
-  const CalibrationHistory& history = runtime.history();
-  report->final = history.Current(log.t_ns.empty() ? 0 : log.t_ns.back());
-  report->attempts = static_cast<int>(history.attempts().size());
-  for (const AttemptRecord& attempt : history.attempts()) {
-    ++report->verdicts[attempt.verdict];
-    if (attempt.verdict == Verdict::kAccepted || attempt.verdict == Verdict::kNewRegime) {
-      report->final_rms_px = attempt.rms_px;
-    }
-    if (attempt.verdict == Verdict::kNoUpdate &&
-        std::find(report->no_update_reasons.begin(), report->no_update_reasons.end(),
-                  attempt.reason) == report->no_update_reasons.end()) {
-      report->no_update_reasons.push_back(attempt.reason);
-    }
-  }
-  report->alarms = history.alarms();
+  SummarizeHistory(runtime.history(), log.t_ns.empty() ? 0 : log.t_ns.back(), report);
   for (auto& [box, values] : log.times) {
-    if (!values.empty()) report->timing[box] = Stats(std::move(values));
+    if (!values.empty()) report->timing[box] = TimingStatsOf(std::move(values));
   }
   if (truth && truth->size() == log.t_ns.size() && !truth->empty()) {
     report->truth = CompareWithTruth(log.t_ns, log.outputs, *truth, settings.convergence);

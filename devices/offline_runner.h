@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,6 +21,7 @@
 #include "devices/source.h"
 #include "pipeline/calibration_error.h"
 #include "pipeline/calibration_pipeline.h"
+#include "pipeline/history_store.h"
 
 namespace autocal {
 
@@ -126,6 +128,25 @@ struct LiveRunControl {
 // calibration. Throws Error as RunSequence does.
 RunReport RunSource(FrameSource& source, const RunSettings& settings,
                     const LiveRunControl& control = {});
+
+// The pieces of a run that other runs (still shots, devices/still_shot_run.h) share.
+// The calibration a run starts from: settings.prior, else the session's pre-mission
+// calibration, checked against the frames' size. Throws Error.
+CameraIntrinsics StartingCalibration(const std::string& input, const SessionInfo& session,
+                                     const RunSettings& settings);
+// settings.history_path opened for a new run (null when empty); throws Error when the file
+// already holds a history.
+std::unique_ptr<HistoryStore> OpenNewHistory(const RunSettings& settings);
+// The final (filtered) calibration at `end_ns`, the attempts by verdict, the reasons for
+// "no update" and the alarms of `history`.
+void SummarizeHistory(const CalibrationHistory& history, int64_t end_ns, RunReport* report);
+// The outputs at `times` against the truth at those times (one each).
+GroundTruthReport CompareWithTruth(const std::vector<int64_t>& times,
+                                   const std::vector<CameraIntrinsics>& outputs,
+                                   const std::vector<GroundTruthFrame>& truth,
+                                   const CalibrationTolerance& tolerance);
+// Median and 95th percentile of milliseconds.
+TimingStats TimingStatsOf(std::vector<double> ms);
 
 // DESIGN.md section 6: frames, seconds, fps, final, updates, alarms, timing_ms and, where
 // the truth is known, error; for a live run, `live` (frames received and dropped, camera

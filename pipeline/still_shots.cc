@@ -1,0 +1,430 @@
+#include "pipeline/still_shots.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <optional>
+#include <tuple>
+#include <set>
+#include <sstream>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "pipeline/error.h"
+#include "pipeline/plumb_line.h"
+#include "pipeline/stopwatch.h"
+
+namespace autocal {
+
+bool StillShotOptions::Check(std::string* error) const {
+  std::string nested;
+  std::ostringstream why;
+  if (!lens.Check(&nested)) {
+    why << "lens: " << nested;
+  } else if (!features.Check(&nested)) {
+    why << "features: " << nested;
+  } else if (!planes.Check(&nested)) {
+    why << "planes: " << nested;
+  } else if (!calibration.Check(&nested)) {
+    why << "calibration: " << nested;
+  } else if (min_shared_keypoints < 1) {
+    why << "min_shared_keypoints must be at least 1";
+  } else if (min_shots_per_point < 2) {
+    why << "min_shots_per_point must be at least 2";
+  } else if (max_points_per_plane < calibration.min_points_per_plane) {
+    why << "max_points_per_plane must be at least calibration.min_points_per_plane";
+  } else if (!(outlier_px > 0)) {
+    why << "outlier_px must be positive";
+  } else if (max_lines < 0) {
+    why << "max_lines must not be negative";
+  } else if (max_attempts < 1) {
+    why << "max_attempts must be at least 1";
+  }
+  if (why.str().empty()) return true;
+  if (error) *error = why.str();
+  return false;
+}
+
+namespace {
+
+// Disjoint sets over 0..n-1, with path halving.
+class DisjointSets {
+ public:
+  explicit DisjointSets(size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+  size_t Find(size_t x) {
+    while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
+    return x;
+  }
+  void Join(size_t a, size_t b) { parent_[Find(a)] = Find(b); }
+
+ private:
+  std::vector<size_t> parent_;
+};
+
+// A keypoint of one shot, numbered over all shots.
+struct Keypoint {
+  int shot = 0;
+  cv::Point2f pixel;
+};
+
+// A plane found between two shots: its matched keypoints, by their global numbers.
+struct PairPlane {
+  std::vector<std::pair<int, int>> links;
+};
+
+using ShotTrack = std::map<int, int>;  // Shot -> global keypoint number.
+
+// The tracks of one chained plane: keypoints joined by the matches of its pair planes. A
+// track that meets the same shot twice was chained through a wrong match: left out.
+std::vector<ShotTrack> TracksOf(const std::vector<const PairPlane*>& pair_planes,
+                            const std::vector<Keypoint>& keypoints, int min_shots) {
+  std::map<int, size_t> local;  // Global keypoint -> index in `members`.
+  std::vector<int> members;
+  for (const PairPlane* plane : pair_planes) {
+    for (const auto& [a, b] : plane->links) {
+      for (int k : {a, b}) {
+        if (local.emplace(k, members.size()).second) members.push_back(k);
+      }
+    }
+  }
+  DisjointSets sets(members.size());
+  for (const PairPlane* plane : pair_planes) {
+    for (const auto& [a, b] : plane->links) sets.Join(local.at(a), local.at(b));
+  }
+  std::map<size_t, ShotTrack> by_root;
+  std::set<size_t> conflicting;
+  for (size_t i = 0; i < members.size(); ++i) {
+    const size_t root = sets.Find(i);
+    if (!by_root[root].emplace(keypoints[members[i]].shot, members[i]).second) {
+      conflicting.insert(root);
+    }
+  }
+  std::vector<ShotTrack> tracks;
+  for (auto& [root, track] : by_root) {
+    if (!conflicting.count(root) && int(track.size()) >= min_shots) tracks.push_back(track);
+  }
+  return tracks;
+}
+
+// Where a track is in two shots (undistorted pixels), if it is in both.
+std::optional<std::pair<cv::Point2f, cv::Point2f>> InBoth(const ShotTrack& track, int a, int b,
+                                                         const std::vector<cv::Point2f>& ideal) {
+  const auto in_a = track.find(a), in_b = track.find(b);
+  if (in_a == track.end() || in_b == track.end()) return std::nullopt;
+  return std::pair{ideal[in_a->second], ideal[in_b->second]};
+}
+
+// The chained tracks split into planes, one after another: the pair of shots that shares
+// most of the tracks left gives a plane by a robust homography; its tracks must fit its
+// homography in every other pair of shots that sees enough of them, and the tracks left that
+// fit every such homography they can be judged by join it. Pair planes that share keypoints
+// can hold two planes of the scene (a pair of shots with too little parallax does not set
+// them apart), and a wrong match can chain a track across them: both come apart here.
+std::vector<std::vector<ShotTrack>> SplitIntoPlanes(std::vector<ShotTrack> tracks,
+                                                    const std::vector<cv::Point2f>& ideal,
+                                                    int shot_count, const PlaneOptions& options,
+                                                    int min_points) {
+  const double threshold = options.shot_inlier_threshold_px;
+  std::vector<std::vector<ShotTrack>> planes;
+  while (int(tracks.size()) >= min_points) {
+    // The seed: the best-shared pair of shots.
+    int seed_a = -1, seed_b = -1, shared = 0;
+    for (int a = 0; a < shot_count; ++a) {
+      for (int b = a + 1; b < shot_count; ++b) {
+        const int n = int(std::count_if(tracks.begin(), tracks.end(), [&](const ShotTrack& t) {
+          return t.count(a) && t.count(b);
+        }));
+        if (n > shared) std::tie(shared, seed_a, seed_b) = std::tie(n, a, b);
+      }
+    }
+    if (shared < options.min_inliers) break;
+    std::vector<size_t> in_seed;
+    std::vector<cv::Point2f> from, to;
+    for (size_t t = 0; t < tracks.size(); ++t) {
+      if (const auto both = InBoth(tracks[t], seed_a, seed_b, ideal)) {
+        in_seed.push_back(t);
+        from.push_back(both->first);
+        to.push_back(both->second);
+      }
+    }
+    std::vector<uchar> mask;
+    if (cv::findHomography(from, to, cv::RANSAC, threshold, mask, options.ransac_iterations)
+            .empty()) {
+      break;
+    }
+    std::vector<bool> member(tracks.size(), false);
+    for (size_t k = 0; k < in_seed.size(); ++k) member[in_seed[k]] = mask[k] != 0;
+
+    // Every other pair of shots: the plane's homography there, from its members; members
+    // that miss it leave, and the other tracks are judged by it.
+    std::vector<int> fits(tracks.size(), 0), misses(tracks.size(), 0);
+    for (int a = 0; a < shot_count; ++a) {
+      for (int b = a + 1; b < shot_count; ++b) {
+        std::vector<size_t> members;
+        from.clear();
+        to.clear();
+        for (size_t t = 0; t < tracks.size(); ++t) {
+          if (!member[t]) continue;
+          if (const auto both = InBoth(tracks[t], a, b, ideal)) {
+            members.push_back(t);
+            from.push_back(both->first);
+            to.push_back(both->second);
+          }
+        }
+        if (int(members.size()) < options.min_inliers) continue;
+        const cv::Mat h =
+            cv::findHomography(from, to, cv::RANSAC, threshold, mask, options.ransac_iterations);
+        if (h.empty()) continue;
+        const cv::Matx33d homography(h);
+        for (size_t t = 0; t < tracks.size(); ++t) {
+          const auto both = InBoth(tracks[t], a, b, ideal);
+          if (!both) continue;
+          const cv::Vec3d mapped = homography * cv::Vec3d(both->first.x, both->first.y, 1.0);
+          const double error = std::hypot(mapped[0] / mapped[2] - both->second.x,
+                                          mapped[1] / mapped[2] - both->second.y);
+          ++(error <= threshold ? fits : misses)[t];
+        }
+      }
+    }
+    std::vector<ShotTrack> plane, rest;
+    for (size_t t = 0; t < tracks.size(); ++t) {
+      const bool joins = misses[t] == 0 && (member[t] || fits[t] > 0);
+      (joins ? plane : rest).push_back(std::move(tracks[t]));
+    }
+    if (int(plane.size()) < min_points) break;
+    planes.push_back(std::move(plane));
+    tracks = std::move(rest);
+  }
+  return planes;
+}
+
+// The tracks of `material` that `solved` placed and reprojects within `threshold_px` in
+// every shot that sees them (tracks it left out stay, they cost nothing); the number left
+// out. Planes left with too few tracks go.
+int LeaveOutOffPlaneTracks(const SelfCalibrationResult& solved, double threshold_px,
+                           int min_points, CalibrationMaterial* material) {
+  int left_out = 0;
+  for (PlaneTrack& plane : material->planes) {
+    const auto placed = std::find_if(solved.planes.begin(), solved.planes.end(),
+                                     [&](const PlaneEstimate& p) { return p.id == plane.id; });
+    if (placed == solved.planes.end()) continue;
+    const std::map<int, Eigen::Vector2d> points(placed->points.begin(), placed->points.end());
+    std::set<int> off;
+    for (const PlaneObservation& o : plane.observations) {
+      const auto point = points.find(o.point);
+      const auto& pose = solved.cam_from_world[o.frame];
+      if (point == points.end() || !pose) continue;
+      const Eigen::Vector3d cam =
+          *pose * (placed->world_from_plane * Eigen::Vector3d(point->second.x(),
+                                                              point->second.y(), 0.0));
+      if (!(cam.z() > 0) || (Project(solved.estimate, cam) - o.pixel).norm() > threshold_px) {
+        off.insert(o.point);
+      }
+    }
+    std::erase_if(plane.observations,
+                  [&](const PlaneObservation& o) { return off.count(o.point) > 0; });
+    left_out += static_cast<int>(off.size());
+  }
+  std::erase_if(material->planes, [&](const PlaneTrack& plane) {
+    std::set<int> points;
+    for (const PlaneObservation& o : plane.observations) points.insert(o.point);
+    return static_cast<int>(points.size()) < min_points;
+  });
+  return left_out;
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, CalibrationMaterial>> StillShotSubsets(
+    const CalibrationMaterial& all, int max_attempts) {
+  std::vector<std::pair<std::string, CalibrationMaterial>> subsets;
+  subsets.emplace_back("all " + std::to_string(all.frame_count) + " shots", all);
+  const int leave_outs = std::min(all.frame_count, max_attempts - 1);
+  for (int i = 0; i < leave_outs; ++i) {
+    const int left_out = i * all.frame_count / leave_outs;
+    CalibrationMaterial subset = all;
+    subset.frame_count = all.frame_count - 1;
+    for (PlaneTrack& plane : subset.planes) {
+      std::erase_if(plane.observations,
+                    [&](const PlaneObservation& o) { return o.frame == left_out; });
+      for (PlaneObservation& o : plane.observations) o.frame -= o.frame > left_out;
+    }
+    subsets.emplace_back("all but shot " + std::to_string(left_out + 1), std::move(subset));
+  }
+  return subsets;
+}
+
+StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
+                                         const CameraIntrinsics& prior,
+                                         const StillShotOptions& options,
+                                         const std::function<void(const std::string&)>& step) {
+  const auto say = [&](const std::string& what) {
+    if (step) step(what);
+  };
+  std::string why;
+  if (!options.Check(&why)) throw Error("still-shot options: " + why);
+  if (!prior.Check(&why)) throw Error("still shots: the prior: " + why);
+  if (shots.size() < 3) {
+    throw Error("still shots: " + std::to_string(shots.size()) +
+                " shots; at least 3 are needed (a plane seen from 3 viewpoints)");
+  }
+  for (size_t i = 0; i < shots.size(); ++i) {
+    if (shots[i].cols != prior.width || shots[i].rows != prior.height) {
+      throw Error("still shots: shot " + std::to_string(i) + " is " +
+                  std::to_string(shots[i].cols) + "x" + std::to_string(shots[i].rows) +
+                  ", the calibration is for " + std::to_string(prior.width) + "x" +
+                  std::to_string(prior.height));
+    }
+  }
+  StillShotCalibration out;
+  const int shot_count = static_cast<int>(shots.size());
+
+  // Boxes 1-2: straight lines of every shot, and the distortion that straightens them.
+  say("lines and distortion (boxes 1-2) in " + std::to_string(shot_count) + " shots");
+  LensStage lens(options.lens);
+  for (const cv::Mat& shot : shots) {
+    const LensSnapshot snapshot = lens.ProcessStill(shot, prior);
+    out.timing_ms["lines"].push_back(snapshot.lines_ms);
+  }
+  {
+    const auto start = std::chrono::steady_clock::now();
+    out.distortion = lens.EstimateNow(prior);
+    out.timing_ms["distortion"].push_back(MillisecondsSince(start));
+  }
+  // As on video: until box 10 has measured it, the planes are fitted with the plumb-line
+  // distortion, measured from the images alone.
+  out.working = out.distortion.usable ? WithDistortionOf(prior, out.distortion.estimate) : prior;
+
+  say("keypoints (box 4) in " + std::to_string(shot_count) + " shots");
+  // Box 4: keypoints of every shot, on the green channel (smallest colour fringes).
+  std::vector<KeypointSet> sets(shots.size());
+  std::vector<int> first_keypoint(shots.size() + 1, 0);
+  std::vector<Keypoint> keypoints;
+  for (int s = 0; s < shot_count; ++s) {
+    const auto start = std::chrono::steady_clock::now();
+    cv::Mat green;
+    if (shots[s].channels() == 1) {
+      green = shots[s];
+    } else {
+      cv::extractChannel(shots[s], green, 1);
+    }
+    sets[s] = DetectKeypoints(green, options.features);
+    out.timing_ms["features"].push_back(MillisecondsSince(start));
+    first_keypoint[s + 1] = first_keypoint[s] + static_cast<int>(sets[s].keypoints.size());
+    for (const cv::KeyPoint& k : sets[s].keypoints) keypoints.push_back({s, k.pt});
+  }
+  std::vector<cv::Point2f> raw;
+  for (const Keypoint& k : keypoints) raw.push_back(k.pixel);
+  const std::vector<cv::Point2f> ideal = UndistortPixels(raw, out.working);
+
+  say("planes (box 6) between " + std::to_string(shot_count * (shot_count - 1) / 2) +
+      " pairs of shots");
+  // Box 6 between every pair of shots.
+  std::vector<PairPlane> pair_planes;
+  for (int a = 0; a < shot_count; ++a) {
+    for (int b = a + 1; b < shot_count; ++b) {
+      const auto start = std::chrono::steady_clock::now();
+      const std::vector<ShotPlane> found =
+          FindPlanesBetweenShots(sets[a], sets[b], out.working, options.planes, options.features);
+      out.timing_ms["planes"].push_back(MillisecondsSince(start));
+      ++out.pairs;
+      out.pairs_with_planes += !found.empty();
+      for (const ShotPlane& plane : found) {
+        PairPlane chained;
+        for (const cv::DMatch& m : plane.matches) {
+          chained.links.emplace_back(first_keypoint[a] + m.queryIdx,
+                                     first_keypoint[b] + m.trainIdx);
+        }
+        pair_planes.push_back(std::move(chained));
+      }
+    }
+  }
+
+  // Pair planes that share keypoints are one plane of the scene.
+  std::map<int, std::vector<int>> planes_of_keypoint;
+  for (size_t p = 0; p < pair_planes.size(); ++p) {
+    std::set<int> members;
+    for (const auto& [a, b] : pair_planes[p].links) members.insert({a, b});
+    for (int k : members) planes_of_keypoint[k].push_back(int(p));
+  }
+  std::map<std::pair<int, int>, int> shared;
+  for (const auto& [k, planes] : planes_of_keypoint) {
+    for (size_t i = 0; i < planes.size(); ++i) {
+      for (size_t j = i + 1; j < planes.size(); ++j) ++shared[{planes[i], planes[j]}];
+    }
+  }
+  DisjointSets same_plane(pair_planes.size());
+  for (const auto& [pair, count] : shared) {
+    if (count >= options.min_shared_keypoints) same_plane.Join(pair.first, pair.second);
+  }
+  std::map<size_t, std::vector<const PairPlane*>> chained;
+  for (size_t p = 0; p < pair_planes.size(); ++p) {
+    chained[same_plane.Find(p)].push_back(&pair_planes[p]);
+  }
+
+  // Each chained plane's tracks split by their homographies, the longest kept.
+  std::vector<std::vector<ShotTrack>> planes;
+  for (const auto& [root, members] : chained) {
+    for (std::vector<ShotTrack>& tracks :
+         SplitIntoPlanes(TracksOf(members, keypoints, options.min_shots_per_point), ideal,
+                         shot_count, options.planes, options.calibration.min_points_per_plane)) {
+      std::stable_sort(tracks.begin(), tracks.end(), [](const ShotTrack& x, const ShotTrack& y) {
+        return x.size() > y.size();
+      });
+      if (int(tracks.size()) > options.max_points_per_plane) {
+        tracks.resize(options.max_points_per_plane);
+      }
+      planes.push_back(std::move(tracks));
+    }
+  }
+  const auto observations = [](const std::vector<ShotTrack>& tracks) {
+    size_t n = 0;
+    for (const ShotTrack& t : tracks) n += t.size();
+    return n;
+  };
+  std::stable_sort(planes.begin(), planes.end(), [&](const auto& x, const auto& y) {
+    return observations(x) > observations(y);
+  });
+
+  out.material.frame_count = shot_count;
+  for (size_t p = 0; p < planes.size(); ++p) {
+    PlaneTrack plane;
+    plane.id = static_cast<int>(p) + 1;
+    for (size_t t = 0; t < planes[p].size(); ++t) {
+      for (const auto& [shot, k] : planes[p][t]) {
+        plane.observations.push_back(
+            {shot, static_cast<int>(t), {keypoints[k].pixel.x, keypoints[k].pixel.y}});
+      }
+    }
+    out.material.planes.push_back(std::move(plane));
+  }
+  const std::vector<LineObservation> lines = lens.PooledShapes();
+  const size_t keep = std::min(lines.size(), static_cast<size_t>(options.max_lines));
+  for (size_t i = 0; i < keep; ++i) out.material.lines.push_back(lines[i * lines.size() / keep]);
+  if (out.material.planes.empty()) return out;
+
+  // A first solve over all the shots finds the tracks off their planes.
+  say("self-calibration (box 10) on all the shots, to find tracks off their planes");
+  {
+    const auto start = std::chrono::steady_clock::now();
+    const SelfCalibrationResult first = SelfCalibrate(out.material, prior, options.calibration);
+    out.timing_ms["calibration"].push_back(MillisecondsSince(start));
+    if (first.usable) {
+      out.outlier_tracks = LeaveOutOffPlaneTracks(
+          first, std::max(options.outlier_px, 3.0 * first.rms_px),
+          options.calibration.min_points_per_plane, &out.material);
+    }
+  }
+
+  // Box 10 over all the shots, then over all but one in turn.
+  for (auto& [name, material] : StillShotSubsets(out.material, options.max_attempts)) {
+    say("self-calibration (box 10) on " + name);
+    const auto start = std::chrono::steady_clock::now();
+    out.attempts.push_back({name, SelfCalibrate(material, prior, options.calibration)});
+    out.timing_ms["calibration"].push_back(MillisecondsSince(start));
+  }
+  return out;
+}
+
+}  // namespace autocal
