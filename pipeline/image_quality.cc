@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <sstream>
 #include <vector>
 
@@ -10,58 +12,114 @@
 namespace autocal {
 namespace {
 
-// The share of the image's neighbour differences that a 9-pixel box blur along `axis`
-// leaves in place (Crete-Roffet et al., "The blur effect", 2007).
-double BlurAlong(const cv::Mat& grey, int axis) {
-  cv::Mat blurred;
-  cv::blur(grey, blurred, axis == 0 ? cv::Size(9, 1) : cv::Size(1, 9));
-  const cv::Rect later = axis == 0 ? cv::Rect(1, 0, grey.cols - 1, grey.rows)
-                                   : cv::Rect(0, 1, grey.cols, grey.rows - 1);
-  const cv::Rect earlier = axis == 0 ? cv::Rect(0, 0, grey.cols - 1, grey.rows)
-                                     : cv::Rect(0, 0, grey.cols, grey.rows - 1);
-  const cv::Mat sharp_step = cv::abs(grey(later) - grey(earlier));
-  const cv::Mat blurred_step = cv::abs(blurred(later) - blurred(earlier));
-  const double total = cv::sum(sharp_step)[0];
-  if (total <= 0.0) return 1.0;  // A flat image: nothing left to lose.
-  const double lost = cv::sum(cv::max(sharp_step - blurred_step, 0.0))[0];
-  return (total - lost) / total;
-}
-
 double Median(std::vector<double> values) {
   std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
   return values[values.size() / 2];
 }
 
+// Sums for Crete-Roffet's blur measure along one axis ("The blur effect", 2007): the
+// image's neighbour differences, and the part of them a 9-pixel box blur (OpenCV's
+// reflect-101 border) takes away. Kept nine times over, so that all is integer: the
+// blurred difference of neighbours is the difference of the two samples the box gains
+// and loses, over 9.
+struct BlurSums {
+  int64_t total9 = 0;
+  int64_t lost9 = 0;
+
+  // Steps from[i] -> to[i], while the box gains gained[i] and loses lost[i]. Summed in
+  // 32 bits over one row (at most 9 * 255 per step), which the compiler vectorizes.
+  void Add(const uint8_t* from, const uint8_t* to, const uint8_t* gained, const uint8_t* lost,
+           int n) {
+    int32_t total = 0, removed = 0;
+    for (int i = 0; i < n; ++i) {
+      const int32_t sharp9 = 9 * std::abs(int32_t(to[i]) - int32_t(from[i]));
+      total += sharp9;
+      removed += std::max(sharp9 - std::abs(int32_t(gained[i]) - int32_t(lost[i])), 0);
+    }
+    total9 += total;
+    lost9 += removed;
+  }
+  double Kept() const {
+    if (total9 == 0) return 1.0;  // A flat image: nothing left to lose.
+    return double(total9 - lost9) / double(total9);
+  }
+};
+
 }  // namespace
 
+// One pass over the rows, in integers, instead of OpenCV's filters on a float copy: the
+// same measures (the noise exactly, the blur to rounding) in about a tenth of the time,
+// since this runs on every frame.
 ImageQuality MeasureImageQuality(const cv::Mat& image) {
-  cv::Mat grey8;
-  if (image.channels() == 3) {
-    cv::cvtColor(image, grey8, cv::COLOR_BGR2GRAY);
-  } else {
-    grey8 = image;
-  }
-  ImageQuality quality;
-  if (grey8.cols < 3 || grey8.rows < 3) return quality;
   cv::Mat grey;
-  grey8.convertTo(grey, CV_32F);
-
-  // Immerkaer, "Fast noise variance estimation", 1996.
-  const cv::Mat mask = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
-  cv::Mat response;
-  cv::filter2D(grey, response, CV_32F, mask);
-  const cv::Rect inner(1, 1, grey.cols - 2, grey.rows - 2);
-  quality.noise_grey = std::sqrt(M_PI / 2.0) * cv::norm(response(inner), cv::NORM_L1) /
-                       (6.0 * inner.area());
-
-  quality.blur = std::max(BlurAlong(grey, 0), BlurAlong(grey, 1));
-
-  int histogram[256] = {};
-  for (int y = 0; y < grey8.rows; ++y) {
-    const uint8_t* row = grey8.ptr<uint8_t>(y);
-    for (int x = 0; x < grey8.cols; ++x) ++histogram[row[x]];
+  if (image.channels() == 3) {
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  } else {
+    grey = image;
   }
-  const double total = double(grey8.total());
+  CV_Assert(grey.type() == CV_8UC1);
+  ImageQuality quality;
+  const int width = grey.cols, height = grey.rows;
+  if (width < 3 || height < 3) return quality;
+
+  // The 9-pixel box around x + 1 gains the sample at x + 5 and loses the one at x - 4.
+  constexpr int kBoxRadius = 4;
+  auto reflect = [](int i, int size) {
+    return cv::borderInterpolate(i, size, cv::BORDER_REFLECT_101);
+  };
+  // Columns whose box reaches over the border take their samples through these tables.
+  const int inner_begin = std::min(kBoxRadius, width - 1);
+  const int inner_end = std::max(inner_begin, width - kBoxRadius - 1);
+  std::vector<int> border_columns;
+  for (int x = 0; x + 1 < width; ++x) {
+    if (x < inner_begin || x >= inner_end) border_columns.push_back(x);
+  }
+  std::vector<uint8_t> border_samples[4];
+
+  // Immerkaer's mask (1 -2 1; -2 4 -2; 1 -2 1) is the horizontal second difference taken
+  // again vertically: three rows of horizontal second differences roll down the image.
+  std::vector<int16_t> second[3];
+  for (auto& row : second) row.assign(width, 0);
+  int64_t noise_sum = 0;
+  BlurSums along_rows, along_columns;
+  int histogram[256] = {};
+  for (int y = 0; y < height; ++y) {
+    const uint8_t* row = grey.ptr<uint8_t>(y);
+    for (int x = 0; x < width; ++x) ++histogram[row[x]];
+    along_rows.Add(row + inner_begin, row + inner_begin + 1, row + inner_begin + kBoxRadius + 1,
+                   row + inner_begin - kBoxRadius, inner_end - inner_begin);
+    for (auto& samples : border_samples) samples.clear();
+    for (const int x : border_columns) {
+      border_samples[0].push_back(row[x]);
+      border_samples[1].push_back(row[x + 1]);
+      border_samples[2].push_back(row[reflect(x + kBoxRadius + 1, width)]);
+      border_samples[3].push_back(row[reflect(x - kBoxRadius, width)]);
+    }
+    along_rows.Add(border_samples[0].data(), border_samples[1].data(), border_samples[2].data(),
+                   border_samples[3].data(), int(border_columns.size()));
+    if (y + 1 < height) {
+      along_columns.Add(row, grey.ptr<uint8_t>(y + 1),
+                        grey.ptr<uint8_t>(reflect(y + kBoxRadius + 1, height)),
+                        grey.ptr<uint8_t>(reflect(y - kBoxRadius, height)), width);
+    }
+    int16_t* newest = second[y % 3].data();
+    for (int x = 1; x + 1 < width; ++x) {
+      newest[x] = int16_t(row[x - 1] - 2 * row[x] + row[x + 1]);
+    }
+    if (y >= 2) {
+      const int16_t* above = second[(y - 2) % 3].data();
+      const int16_t* middle = second[(y - 1) % 3].data();
+      int32_t row_sum = 0;  // At most 16 * 255 per pixel.
+      for (int x = 1; x + 1 < width; ++x) row_sum += std::abs(above[x] - 2 * middle[x] + newest[x]);
+      noise_sum += row_sum;
+    }
+  }
+  // Immerkaer, "Fast noise variance estimation", 1996.
+  const double inner_area = double(width - 2) * double(height - 2);
+  quality.noise_grey = std::sqrt(M_PI / 2.0) * double(noise_sum) / (6.0 * inner_area);
+  quality.blur = std::max(along_rows.Kept(), along_columns.Kept());
+
+  const double total = double(grey.total());
   double seen = 0.0;
   int low = -1, high = 255;
   for (int level = 0; level < 256; ++level) {
