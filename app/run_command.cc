@@ -14,6 +14,7 @@
 #include "devices/offline_runner.h"
 #include "devices/sequence.h"
 #include "devices/source.h"
+#include "devices/still_shot_run.h"
 #include "pipeline/calibration_io.h"
 #include "pipeline/error.h"
 #include "pipeline/option_fields.h"
@@ -168,6 +169,10 @@ int Run(const QStringList& arguments) {
        "name=value"},
       {"print-settings", "Print every pipeline option with its value and meaning, and exit."},
       {"truncate-at-fault", "Keep a recording up to its first fault instead of refusing it."},
+      {"stills",
+       "The input's frames are still shots of one scene from different viewpoints (an image "
+       "folder of photographs, at least 3): calibrated together from the planes their "
+       "keypoints share, not as a video. Without --prior, from a 75 degree field of view."},
   });
   if (const auto code = Parse(parser, name, arguments)) return *code;
   if (!parser.isSet("input") && !parser.isSet("print-settings")) {
@@ -186,6 +191,11 @@ int Run(const QStringList& arguments) {
   // Through the source interface: live inputs, and recordings with another accelerometer.
   const bool as_source =
       parser.isSet("live") || parser.isSet("accel") || input.starts_with("camera:");
+  const bool stills = parser.isSet("stills");
+  if (stills && (as_source || parser.isSet("seconds"))) {
+    return UsageError(name, "--stills goes with a recording or an image folder (not a camera, --live, --accel)",
+                      parser);
+  }
   if (as_source && parser.isSet("truncate-at-fault")) {
     return UsageError(name, "--truncate-at-fault goes with a recording alone (no --live, --accel)",
                       parser);
@@ -224,7 +234,16 @@ int Run(const QStringList& arguments) {
     std::unique_ptr<FrameSource> source;
     std::unique_ptr<Sequence> opened;
     const Sequence* sequence = nullptr;
-    if (as_source) {
+    if (stills) {
+      // Through the source interface, which reads a plain image folder too.
+      source = OpenSource(input, "", SourceOptions());
+      sequence = source->sequence();
+      const SessionInfo& session = sequence->session();
+      if (!settings.prior && !session.premission_calibration) {
+        settings.prior = CameraIntrinsics::FromFieldOfView(session.width, session.height, 75.0);
+        std::fprintf(stderr, "autocal run: no --prior: starting from a 75 degree field of view\n");
+      }
+    } else if (as_source) {
       SourceOptions source_options;
       source_options.real_time = parser.isSet("live");
       bool speed_ok = false;
@@ -252,7 +271,11 @@ int Run(const QStringList& arguments) {
     }
 
     RunReport report;
-    if (sequence) {
+    if (stills) {
+      report = RunStillShots(*sequence, settings, [](const std::string& step) {
+        std::fprintf(stderr, "run: %s\n", step.c_str());
+      });
+    } else if (sequence) {
       ProgressPrinter printer("run", "frames");
       report = RunSequence(*sequence, settings, [&](const RunProgress& progress) {
         const CameraIntrinsics& c = progress.snapshot->calibration.calibration;

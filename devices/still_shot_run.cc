@@ -82,9 +82,8 @@ RunReport RunStillShots(const Sequence& sequence, const RunSettings& settings,
   std::vector<CameraIntrinsics> outputs;
   for (size_t k = 0; k < calibrated.attempts.size(); ++k) {
     const int64_t t_ns = last_ns + static_cast<int64_t>(k) * 1'000'000'000;
-    const Verdict verdict = history.Judge(t_ns, calibrated.attempts[k].result);
-    say(calibrated.attempts[k].shots + ": " + VerdictName(verdict) + " (" +
-        history.attempts().back().reason + ")");
+    history.Judge(t_ns, calibrated.attempts[k].result);
+    say(calibrated.attempts[k].shots + ": " + history.attempts().back().reason);
     if (store) store->Record(history);
     times.push_back(t_ns);
     outputs.push_back(history.Current(t_ns).calibration);

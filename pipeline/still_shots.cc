@@ -234,15 +234,24 @@ int LeaveOutOffPlaneTracks(const SelfCalibrationResult& solved, double threshold
   return left_out;
 }
 
+// The shots some plane's track is seen in, ascending.
+std::vector<int> ShotsSeen(const CalibrationMaterial& material) {
+  std::set<int> seen;
+  for (const PlaneTrack& plane : material.planes) {
+    for (const PlaneObservation& o : plane.observations) seen.insert(o.frame);
+  }
+  return {seen.begin(), seen.end()};
+}
+
 }  // namespace
 
 std::vector<std::pair<std::string, CalibrationMaterial>> StillShotSubsets(
-    const CalibrationMaterial& all, int max_attempts) {
+    const CalibrationMaterial& all, const std::vector<int>& placed, int max_attempts) {
   std::vector<std::pair<std::string, CalibrationMaterial>> subsets;
   subsets.emplace_back("all " + std::to_string(all.frame_count) + " shots", all);
-  const int leave_outs = std::min(all.frame_count, max_attempts - 1);
+  const int leave_outs = std::min(int(placed.size()), max_attempts - 1);
   for (int i = 0; i < leave_outs; ++i) {
-    const int left_out = i * all.frame_count / leave_outs;
+    const int left_out = placed[i * placed.size() / leave_outs];
     CalibrationMaterial subset = all;
     subset.frame_count = all.frame_count - 1;
     for (PlaneTrack& plane : subset.planes) {
@@ -404,21 +413,44 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   for (size_t i = 0; i < keep; ++i) out.material.lines.push_back(lines[i * lines.size() / keep]);
   if (out.material.planes.empty()) return out;
 
-  // A first solve over all the shots finds the tracks off their planes.
+  {
+    const std::vector<int> seen = ShotsSeen(out.material);
+    std::string unseen;
+    for (int shot = 0, k = 0; shot < shot_count; ++shot) {
+      if (k < int(seen.size()) && seen[k] == shot) {
+        ++k;
+      } else {
+        unseen += (unseen.empty() ? "" : ", ") + std::to_string(shot + 1);
+      }
+    }
+    say(std::to_string(out.material.planes.size()) + " planes over " +
+        std::to_string(seen.size()) + " of " + std::to_string(shot_count) + " shots" +
+        (unseen.empty() ? "" : " (shots " + unseen + " share no plane with the others)"));
+  }
+  // A first solve over all the shots finds the tracks off their planes, and the shots it
+  // can place: leaving out another would repeat the attempt on all of them, and the history
+  // would take the copies for agreement.
   say("self-calibration (box 10) on all the shots, to find tracks off their planes");
+  std::vector<int> placed = ShotsSeen(out.material);
   {
     const auto start = std::chrono::steady_clock::now();
-    const SelfCalibrationResult first = SelfCalibrate(out.material, prior, options.calibration);
+    SelfCalibrationResult first = SelfCalibrate(out.material, prior, options.calibration);
     out.timing_ms["calibration"].push_back(MillisecondsSince(start));
-    if (first.usable) {
-      out.outlier_tracks = LeaveOutOffPlaneTracks(
-          first, std::max(options.outlier_px, 3.0 * first.rms_px),
-          options.calibration.min_points_per_plane, &out.material);
+    if (!first.usable) {  // Fewer shots would not do better: the attempt on all is the one.
+      out.attempts.push_back({"all " + std::to_string(shot_count) + " shots", std::move(first)});
+      return out;
     }
+    out.outlier_tracks = LeaveOutOffPlaneTracks(first,
+                                                std::max(options.outlier_px, 3.0 * first.rms_px),
+                                                options.calibration.min_points_per_plane,
+                                                &out.material);
+    std::erase_if(placed, [&](int shot) { return !first.cam_from_world[shot]; });
+    say("box 10 placed " + std::to_string(placed.size()) + " of " + std::to_string(shot_count) +
+        " shots; " + std::to_string(out.outlier_tracks) + " tracks off their planes left out");
   }
 
   // Box 10 over all the shots, then over all but one in turn.
-  for (auto& [name, material] : StillShotSubsets(out.material, options.max_attempts)) {
+  for (auto& [name, material] : StillShotSubsets(out.material, placed, options.max_attempts)) {
     say("self-calibration (box 10) on " + name);
     const auto start = std::chrono::steady_clock::now();
     out.attempts.push_back({name, SelfCalibrate(material, prior, options.calibration)});

@@ -39,8 +39,8 @@ struct StillShotOptions {
   // (or 3 times the solve's RMS, if more) in some shot are left out: a point off the plane
   // (a box on the floor that the pairs' homographies could not set apart) or a wrong match.
   double outlier_px = 1.0;
-  // Box 10 is tried on all the shots, then on all but one, each shot left out in turn
-  // (spread over the set when there are more), at most this many attempts in all: the
+  // Box 10 is tried on all the shots, then on all but one, each shot it placed left out in
+  // turn (spread over them when there are more), at most this many attempts in all: the
   // history sees whether the shots agree, as it sees consecutive windows of a video.
   int max_attempts = 9;
 
@@ -63,7 +63,8 @@ struct StillShotCalibration {
   int outlier_tracks = 0;  // Tracks left out after the first solve.
   int pairs = 0;              // Pairs of shots matched...
   int pairs_with_planes = 0;  // ...and those in which a plane was found.
-  std::vector<StillShotAttempt> attempts;  // The first is over all the shots.
+  // The first is over all the shots; when box 10 can make nothing of them, it is the only one.
+  std::vector<StillShotAttempt> attempts;
   // Milliseconds per box, each time it ran: "lines" and "features" per shot, "distortion"
   // once, "planes" per pair of shots (matching and fitting), "calibration" per attempt.
   std::map<std::string, std::vector<double>> timing_ms;
@@ -78,10 +79,10 @@ StillShotCalibration CalibrateStillShots(
     const StillShotOptions& options = {},
     const std::function<void(const std::string&)>& step = {});
 
-// The material of the attempts: all the shots, then each left out in turn (up to
-// max_attempts in all), with the left-out shot's observations removed and the later shots
-// renumbered. Names each subset.
+// The material of the attempts: all the shots, then each of the `placed` shots (ascending)
+// left out in turn (spread over them, up to max_attempts in all), with its observations
+// removed and the later shots renumbered. Names each subset.
 std::vector<std::pair<std::string, CalibrationMaterial>> StillShotSubsets(
-    const CalibrationMaterial& all, int max_attempts);
+    const CalibrationMaterial& all, const std::vector<int>& placed, int max_attempts);
 
 }  // namespace autocal

@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# `autocal run --stills` end to end: a folder of photographs (OpenCV's sample shots) and a
+# simulated recording taken as still shots write the history, summary and export of any
+# run (with the error against the truth where there is one); too few shots, an unreadable
+# one and a live input are refused with a message naming what is wrong. Accuracy is
+# tested in tests/still_shots_test.cc.
+set -euo pipefail
+autocal="$1"
+dir="$(mktemp -d)"
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+data=/usr/share/doc/opencv-doc/examples/data
+[[ -f "$data/left01.jpg" ]] || fail "OpenCV's sample images are missing: apt-get install opencv-doc"
+
+# Real photographs with no prior: a 75 degree start, said so; every step reported.
+mkdir "$dir/left"
+cp "$data"/left0[1-6].jpg "$dir/left/"
+"$autocal" run --input "$dir/left" --stills --history "$dir/left.sqlite" \
+  --summary "$dir/left.json" --export "$dir/left.yaml" --format opencv \
+  >"$dir/out" 2>"$dir/progress"
+cat "$dir/progress" "$dir/out"
+grep -q 'no --prior: starting from a 75 degree field of view' "$dir/progress" || fail "the start said"
+grep -q 'run: planes (box 6) between 15 pairs of shots' "$dir/progress" || fail "steps shown"
+grep -qE '^6 frames' "$dir/out" || fail "shots reported"
+grep -qE '^attempts [1-9]' "$dir/out" || fail "attempts were made"
+for key in '"frames": 6' '"final": {' '"updates": {"attempted":' '"timing_ms": {' \
+  '"features": {"median":' '"planes": {"median":' '"calibration": {"median":'; do
+  grep -q "$key" "$dir/left.json" || fail "summary has $key: $(cat "$dir/left.json")"
+done
+grep -q 'camera_matrix' "$dir/left.yaml" || fail "export written"
+"$autocal" export --history "$dir/left.sqlite" --format csv --out "$dir/left.csv" >/dev/null
+attempts=$(grep -oE '"attempted": [0-9]+' "$dir/left.json" | grep -oE '[0-9]+$')
+[[ $(($(wc -l <"$dir/left.csv") - 1)) -eq $attempts ]] || fail "one history row per attempt"
+
+# A simulated recording as shots: the summary compares with its truth.
+"$autocal" run --input "sim:office,seconds=8,fps=1,lens=sonnar,resolution=640x480" --stills \
+  --summary "$dir/sim.json" >"$dir/out" 2>/dev/null
+grep -q '^error against the truth:' "$dir/out" || fail "error against the truth reported"
+grep -q '"error": {"final": {"fx_percent":' "$dir/sim.json" || fail "summary has error"
+
+expect() {  # expect CODE PATTERN ARGS...: exit code and a message on stderr.
+  local code=$1 pattern=$2
+  shift 2
+  set +e
+  "$autocal" run "$@" >/dev/null 2>"$dir/err"
+  local got=$?
+  set -e
+  [[ $got -eq $code ]] || fail "run $* exits $got, expected $code: $(cat "$dir/err")"
+  grep -q -- "$pattern" "$dir/err" || fail "run $*: expected '$pattern' in: $(cat "$dir/err")"
+}
+mkdir "$dir/two" "$dir/broken"
+cp "$data/graf1.png" "$data/graf3.png" "$dir/two/"
+expect 1 '2 images; still shots need at least 3' --input "$dir/two" --stills
+cp "$data"/left0[1-3].jpg "$dir/broken/"
+echo 'not a picture' >"$dir/broken/left04.jpg"
+expect 1 'left04.jpg: cannot be decoded' --input "$dir/broken" --stills
+expect 2 '--stills goes with a recording or an image folder' --input camera:0 --stills
+expect 2 '--stills goes with a recording or an image folder' --input sim:office --live --stills
+echo PASS
