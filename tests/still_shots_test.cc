@@ -207,8 +207,12 @@ TEST(StillShots, RunJudgesTheAttemptsAndComparesWithTheTruth) {
   EXPECT_EQ(report.prior, WrongPrior(shots.truth));
   ASSERT_TRUE(report.truth.has_value());
   PrintError("output", report.truth->final);
-  std::printf("attempts %d, regime %d, final RMS %.3f px\n", report.attempts, report.final.regime,
-              report.final_rms_px);
+  std::printf(
+      "attempts %d, regime %d, final RMS %.3f px; %.1f s in all, median ms: features %.0f, "
+      "planes %.0f (per pair), calibration %.0f (per solve)\n",
+      report.attempts, report.final.regime, report.final_rms_px, report.wall_seconds,
+      report.timing.at("features").median_ms, report.timing.at("planes").median_ms,
+      report.timing.at("calibration").median_ms);
   // The wrong prior is left by an alarm and a new regime, as on video; then the output is
   // the new regime's trend over the attempts that agree.
   EXPECT_FALSE(report.alarms.empty());
@@ -219,7 +223,6 @@ TEST(StillShots, RunJudgesTheAttemptsAndComparesWithTheTruth) {
   EXPECT_LT(std::abs(report.truth->final.cy_px), 2.0);
   EXPECT_LT(report.truth->final.distortion_px, 0.5);
   EXPECT_TRUE(report.truth->converged_at_s.has_value());
-  EXPECT_TRUE(report.timing.count("features") && report.timing.count("calibration"));
 
   const StoredHistory stored = HistoryStore(settings.history_path).Load();
   EXPECT_EQ(int(stored.attempts.size()), report.attempts);
