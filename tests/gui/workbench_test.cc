@@ -9,6 +9,7 @@
 #include <thread>
 #include <vector>
 
+#include <QAction>
 #include <QComboBox>
 #include <QDoubleSpinBox>
 #include <QElapsedTimer>
@@ -156,6 +157,8 @@ void WorkbenchTest::init() { QSettings().clear(); }
 
 std::unique_ptr<MainWindow> WorkbenchTest::OpenWindow(const QString& source) {
   auto window = std::make_unique<MainWindow>();
+  // The frames as decoded: the overlay layers on by default (gui_overlay_test) are off.
+  for (const OverlayLayer layer : kAllOverlayLayers) window->overlayAction(layer)->setChecked(false);
   window->resize(1200, 800);
   window->show();
   window->activateWindow();  // Shortcuts only reach the active window.
