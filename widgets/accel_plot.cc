@@ -168,11 +168,24 @@ void AccelPlot::seekTo(const QPoint& pos) {
   emit seekRequested(t);
 }
 
+void AccelPlot::showEvent(QShowEvent* event) {
+  QChartView::showEvent(event);
+  if (redraw_when_shown_) scheduleRedraw();
+}
+
 void AccelPlot::scheduleRedraw() {
-  if (!redraw_timer_.isActive()) redraw_timer_.start();
+  if (!isVisible()) {
+    redraw_when_shown_ = true;
+    return;
+  }
+  if (redraw_timer_.isActive()) return;
+  const qint64 since = since_redraw_.isValid() ? since_redraw_.elapsed() : kMinRedrawIntervalMs;
+  redraw_timer_.start(static_cast<int>(std::max<qint64>(0, kMinRedrawIntervalMs - since)));
 }
 
 void AccelPlot::redraw() {
+  since_redraw_.start();
+  redraw_when_shown_ = false;
   // A window centred on the cursor, held inside the recording near its ends.
   double t0 = cursor_s_ - window_s_ / 2.0;
   if (duration_s_ > window_s_) {

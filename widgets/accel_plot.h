@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include <QElapsedTimer>
 #include <QTimer>
 #include <QtCharts/QChart>
 #include <QtCharts/QChartView>
@@ -59,10 +60,16 @@ class AccelPlot : public QChartView {
   void mouseMoveEvent(QMouseEvent* event) override;
   void wheelEvent(QWheelEvent* event) override;
   void resizeEvent(QResizeEvent* event) override;
+  void showEvent(QShowEvent* event) override;
 
  private:
+  // Redraws follow the cursor at most this often: a chart's redraw costs the GUI thread
+  // more than a video frame, and the video comes first.
+  static constexpr int kMinRedrawIntervalMs = 66;
+
   void seekTo(const QPoint& pos);
-  // Redraws are coalesced: many cursor moves between two frames cost one redraw.
+  // Redraws are coalesced: many cursor moves between two frames cost one redraw; none is
+  // made while the plot is hidden (it redraws when shown).
   void scheduleRedraw();
   void redraw();
 
@@ -78,6 +85,8 @@ class AccelPlot : public QChartView {
   std::array<QLineSeries*, 3> series_;
   QLineSeries* cursor_;
   QTimer redraw_timer_;
+  QElapsedTimer since_redraw_;
+  bool redraw_when_shown_ = false;
 };
 
 }  // namespace autocal

@@ -621,7 +621,23 @@ void CalibrationPlots::setVisibleRange(double t0_s, double t1_s) {
 
 void CalibrationPlots::setCursorTime(double seconds) {
   cursor_s_ = seconds;
-  scheduleRedraw();
+  if (!isVisible()) {
+    redraw_when_shown_ = true;
+  } else if (!redraw_timer_.isActive()) {
+    moveCursor();  // A redraw under way draws the cursor where it now is.
+  }
+}
+
+void CalibrationPlots::moveCursor() {
+  for (CalibrationChart* chart : charts_) {
+    const double lo = chart->valueAxis()->min(), hi = chart->valueAxis()->max();
+    chart->cursor()->replace(QVector<QPointF>{{cursor_s_, lo}, {cursor_s_, hi}});
+  }
+}
+
+void CalibrationPlots::showEvent(QShowEvent* event) {
+  QWidget::showEvent(event);
+  if (redraw_when_shown_) scheduleRedraw();
 }
 
 void CalibrationPlots::setShowRejected(bool show) {
@@ -723,6 +739,10 @@ void CalibrationPlots::exportDialog() {
 }
 
 void CalibrationPlots::scheduleRedraw() {
+  if (!isVisible()) {
+    redraw_when_shown_ = true;
+    return;
+  }
   if (!redraw_timer_.isActive()) redraw_timer_.start();
 }
 
@@ -732,6 +752,7 @@ void CalibrationPlots::redrawNow() {
 }
 
 void CalibrationPlots::redraw() {
+  redraw_when_shown_ = false;
   const double time_tick = NiceTickInterval(t1_ - t0_, 8);
   for (int channel = 0; channel < kNumCalibrationChannels; ++channel) {
     CalibrationChart& chart = *charts_[channel];

@@ -190,13 +190,18 @@ class CalibrationPlots : public QWidget {
 
   // Reshapes the series and truth for drawing; shows everything unless `keep_view`.
   void rebuild(bool keep_view = false);
+  void showEvent(QShowEvent* event) override;
   void exportDialog();
   void zoom(double t_s, double factor);
   void pan(double dt_s);
   void showTooltip(int channel, MarkerClass marker, const QPointF& point, bool state);
   void showTooltipText(int channel, const QString& text, bool state);
+  // Coalesced to one redraw per turn of the event loop; none while the plots are hidden
+  // (a tab behind another), which redraw when shown.
   void scheduleRedraw();
   void redraw();
+  // Moves the cursor alone: while a recording plays it moves with every frame.
+  void moveCursor();
   double toSeconds(int64_t t_ns) const;
   // The time span of everything there is to draw.
   std::pair<double, double> fullRange() const;
@@ -225,6 +230,7 @@ class CalibrationPlots : public QWidget {
   QCheckBox* show_rejected_;
   std::array<CalibrationChart*, kNumCalibrationChannels> charts_;
   QTimer redraw_timer_;
+  bool redraw_when_shown_ = false;
 };
 
 }  // namespace autocal

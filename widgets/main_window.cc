@@ -87,6 +87,15 @@ constexpr ViewModeEntry kViewModes[] = {
      QT_TR_NOOP("Raw and Rectified &Side by Side"), QT_TR_NOOP("Side by side")},
 };
 
+// A label whose text changes with every frame is given a fixed size that fits `widest`: a
+// label that may change size makes the whole window lay itself out again at each change,
+// which costs the GUI thread more than the frame's drawing.
+void FixSize(QLabel* label, const QString& widest) {
+  const QFontMetrics metrics = label->fontMetrics();
+  label->setFixedSize(metrics.horizontalAdvance(widest) + 2 * label->margin() + 4,
+                      label->sizeHint().height());
+}
+
 QToolButton* TransportButton(QAction* action) {
   auto* button = new QToolButton;
   button->setDefaultAction(action);
@@ -172,8 +181,7 @@ void MainWindow::createCentralArea() {
   slider_->setFocusPolicy(Qt::NoFocus);
   slider_->setToolTip(tr("Drag to seek"));
   position_label_ = new QLabel;
-  position_label_->setMinimumWidth(position_label_->fontMetrics().horizontalAdvance(
-      QStringLiteral("00000.000 s / 00000.000 s   frame 000000 of 000000")));
+  FixSize(position_label_, QStringLiteral("00000.000 s / 00000.000 s   frame 000000 of 000000"));
 
   speed_box_ = new QComboBox;
   speed_box_->setObjectName(QStringLiteral("speed"));
@@ -455,6 +463,18 @@ void MainWindow::createStatusBar() {
   status_display_ = new QLabel;
   status_display_->setObjectName(QStringLiteral("status_display"));
   status_display_->setToolTip(tr("Frames the video view put on screen in the last second"));
+  FixSize(status_position_, QStringLiteral("frame 000000 of 000000  00000.000 s"));
+  FixSize(status_found_, tr("%1 lines, %2 snakes, %3 tracks, %4 planes, %5 boards")
+                             .arg(999)
+                             .arg(999)
+                             .arg(9999)
+                             .arg(99)
+                             .arg(99));
+  FixSize(status_pipeline_, tr("pipeline done %1 / %2 frames, %3 fps")
+                                .arg(999999)
+                                .arg(999999)
+                                .arg(QStringLiteral("999.9")));
+  FixSize(status_display_, tr("display %1 fps").arg(QStringLiteral("999.9")));
   statusBar()->addWidget(status_source_, 1);
   statusBar()->addPermanentWidget(status_found_);
   statusBar()->addPermanentWidget(status_pipeline_);
