@@ -27,7 +27,8 @@ struct MaterialOptions {
   // turn (which fixes the focal length), short enough that a jolt of the lens leaves the
   // window soon (an alarm needs two attempts on windows after it).
   double window_s = 2.0;
-  int view_every_frames = 2;     // One frame in this many is a view (neighbours add little).
+  // One frame in this many is a view: neighbours add little but cost as much to solve.
+  int view_every_frames = 3;
   double attempt_every_s = 0.5;  // Box 10 is tried this often.
   // Per plane, the tracks seen in the most views are handed on, at most this many: the
   // solve grows with them, its accuracy hardly beyond this.
