@@ -1,6 +1,7 @@
 // `autocal bench`: the whole pipeline on a simulated recording, timed. The recording is
 // rendered into memory first so that rendering is not timed (or, with --stream, rendered
 // as the pipeline asks for it, for sessions too long to hold: then memory is the point).
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -50,6 +51,47 @@ class RenderedSequence : public Sequence {
  private:
   std::unique_ptr<Sequence> source_;
   std::vector<cv::Mat> frames_;
+};
+
+// `source` played over and over, each pass's times (frames and accelerometer) shifted to
+// follow the last: a long session from a short rendering, for memory over time. Each pass
+// starts with a cut, as if the camera had been covered; there is no ground truth.
+class LoopedSequence : public Sequence {
+ public:
+  LoopedSequence(const Sequence& source, size_t frame_count)
+      : source_(source), frame_count_(frame_count) {
+    const size_t n = source.frame_count();
+    if (n < 2) throw Error("--loop needs a recording of at least two frames");
+    // One pass lasts its frames' span plus one frame interval.
+    period_ns_ = source.frame_time_ns(n - 1) - source.frame_time_ns(0) +
+                 (source.frame_time_ns(n - 1) - source.frame_time_ns(0)) / int64_t(n - 1);
+    const size_t passes = (frame_count + n - 1) / n;
+    const int64_t end_ns = frame_time_ns(frame_count - 1);
+    for (size_t pass = 0; pass < passes; ++pass) {
+      for (AccelSample sample : source.accel()) {
+        sample.t_ns += int64_t(pass) * period_ns_;
+        if (sample.t_ns <= end_ns + period_ns_ / int64_t(n)) accel_.push_back(sample);
+      }
+    }
+  }
+  std::string Describe() const override { return source_.Describe() + ", looped"; }
+  const SessionInfo& session() const override { return source_.session(); }
+  size_t frame_count() const override { return frame_count_; }
+  int64_t frame_time_ns(size_t index) const override {
+    const size_t n = source_.frame_count();
+    return source_.frame_time_ns(index % n) + int64_t(index / n) * period_ns_;
+  }
+  cv::Mat LoadFrame(size_t index) const override {
+    return source_.LoadFrame(index % source_.frame_count());
+  }
+  const std::vector<AccelSample>& accel() const override { return accel_; }
+  const std::vector<std::string>& warnings() const override { return source_.warnings(); }
+
+ private:
+  const Sequence& source_;
+  size_t frame_count_;
+  int64_t period_ns_ = 0;
+  std::vector<AccelSample> accel_;
 };
 
 // A field of /proc/self/status in MB (VmHWM: peak resident size; VmRSS: now).
@@ -109,6 +151,11 @@ int Bench(const QStringList& arguments) {
       {"stream",
        "Render frames as the pipeline asks for them instead of beforehand (rendering is then "
        "timed): for long sessions, with the resident size sampled every 10% of the run."},
+      {"loop",
+       "Render only this many seconds and play them over and over for --seconds (each pass "
+       "starts with a cut): a long session for memory, without the long rendering; the "
+       "resident size is sampled every 10% of the run.",
+       "s"},
   });
   if (const auto code = Parse(parser, name, arguments)) return *code;
   bool seconds_ok = false;
@@ -125,10 +172,25 @@ int Bench(const QStringList& arguments) {
                       parser);
   }
 
+  std::optional<double> loop_seconds;
+  if (parser.isSet("loop")) {
+    bool loop_ok = false;
+    loop_seconds = parser.value("loop").toDouble(&loop_ok);
+    if (!loop_ok || !(*loop_seconds > 0.0) || *loop_seconds > seconds) {
+      return UsageError(name,
+                        "--loop takes positive seconds, at most --seconds; got " +
+                            parser.value("loop"),
+                        parser);
+    }
+    if (parser.isSet("stream")) return UsageError(name, "--loop and --stream exclude each other", parser);
+  }
+
   try {
     Scenario scenario = ParseScenarioSpec(parser.value("scenario").toStdString());
     ApplyScenarioOverride(&scenario, "resolution", parser.value("resolution").toStdString());
-    ApplyScenarioOverride(&scenario, "seconds", parser.value("seconds").toStdString());
+    ApplyScenarioOverride(&scenario, "seconds",
+                          loop_seconds ? parser.value("loop").toStdString()
+                                       : parser.value("seconds").toStdString());
     std::unique_ptr<Sequence> simulated = MakeSimulatedSequence(scenario);
     const bool stream = parser.isSet("stream");
     std::unique_ptr<RenderedSequence> rendered;
@@ -136,7 +198,14 @@ int Bench(const QStringList& arguments) {
       std::fprintf(stderr, "autocal bench: rendering %zu frames...\n", simulated->frame_count());
       rendered = std::make_unique<RenderedSequence>(std::move(simulated));
     }
-    const Sequence& sequence = stream ? *simulated : *rendered;
+    std::unique_ptr<LoopedSequence> looped;
+    if (loop_seconds) {
+      looped = std::make_unique<LoopedSequence>(
+          *rendered, size_t(std::lround(double(rendered->frame_count()) * seconds / *loop_seconds)));
+    }
+    const Sequence& sequence = stream   ? *simulated
+                               : looped ? static_cast<const Sequence&>(*looped)
+                                        : *rendered;
 
     const QTemporaryDir dir;
     if (!dir.isValid()) throw Error("cannot make a temporary folder for the history");
@@ -178,7 +247,7 @@ int Bench(const QStringList& arguments) {
                 update.count, update.median_ms, update.p95_ms);
     std::printf("peak memory (VmHWM): %.1f MB, of which rendered frames %.1f MB\n", peak_mb,
                 frames_mb);
-    if (stream && rss_after_minute && !rss.empty()) {
+    if ((stream || looped) && rss_after_minute && !rss.empty()) {
       std::printf("resident size: %.1f MB after 1 min, %.1f MB at the end (%+.1f%%)\n",
                   *rss_after_minute, rss.back().second,
                   100.0 * (rss.back().second / *rss_after_minute - 1.0));
@@ -194,6 +263,7 @@ int Bench(const QStringList& arguments) {
       json += "  \"fps\": " + JsonNumber(report.fps) + ",\n";
       json += "  \"judge_after_frames\": " + std::to_string(judge_after) + ",\n";
       json += "  \"rendering_timed\": " + std::string(stream ? "true" : "false") + ",\n";
+      json += "  \"loop_seconds\": " + (loop_seconds ? JsonNumber(*loop_seconds) : "null") + ",\n";
       json += "  \"timing_ms\": {";
       bool first = true;
       for (const auto& [box, stats] : report.timing) {

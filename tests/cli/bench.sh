@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# `autocal bench` (issue #6): the whole pipeline timed on a simulated recording, its figures
+# printed and written as JSON; --loop plays a short rendering over and over for a long
+# session's memory; bad arguments are refused with the reason.
+set -euo pipefail
+autocal="$1"
+dir="$(mktemp -d)"
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+field() { grep -oE "\"$1\": [-0-9.e+]+" "$2" | head -1 | grep -oE '[-0-9.e+]+$'; }
+
+"$autocal" bench --scenario office --resolution 320x240 --seconds 2 --json "$dir/plain.json" \
+  >"$dir/plain.txt" 2>/dev/null
+[[ $(field frames "$dir/plain.json") == 60 ]] || fail "2 s at 30 fps are 60 frames: $(cat "$dir/plain.json")"
+for box in lines flow planes frame; do
+  grep -q "\"$box\": {\"median\"" "$dir/plain.json" || fail "no timing of $box in the JSON"
+  grep -qE "^$box +[0-9.]+ +[0-9.]+ +60$" "$dir/plain.txt" || fail "no timing of $box printed"
+done
+awk -v fps="$(field fps "$dir/plain.json")" 'BEGIN { exit !(fps > 0) }' || fail "no frame rate"
+
+# 1 s rendered, played 4 times: 120 frames with times running on, memory sampled.
+"$autocal" bench --scenario office --resolution 320x240 --seconds 4 --loop 1 \
+  --json "$dir/loop.json" >"$dir/loop.txt" 2>/dev/null
+[[ $(field frames "$dir/loop.json") == 120 ]] || fail "4 s looped are 120 frames: $(cat "$dir/loop.json")"
+awk -v s="$(field seconds "$dir/loop.json")" 'BEGIN { exit !(s > 3.9 && s < 4.1) }' ||
+  fail "the passes follow each other in time: $(field seconds "$dir/loop.json") s"
+[[ $(field loop_seconds "$dir/loop.json") == 1 ]] || fail "loop_seconds in the JSON"
+[[ $(grep -o '"mb":' "$dir/loop.json" | wc -l) -ge 9 ]] || fail "resident size sampled every 10%"
+grep -q "looped" "$dir/loop.txt" || fail "the report says the recording was looped"
+
+if "$autocal" bench --seconds 2 --loop 5 >/dev/null 2>"$dir/err.txt"; then
+  fail "a loop longer than the session was accepted"
+fi
+grep -q -- "--loop" "$dir/err.txt" || fail "the refusal names --loop: $(cat "$dir/err.txt")"
+echo "bench: $(field fps "$dir/plain.json") fps at 320x240; looped run of $(field frames "$dir/loop.json") frames"
