@@ -187,7 +187,11 @@ TEST_P(StillShotsFromWrongPrior, ConvergeToTheTruthOnTrueScenePlanes) {
 INSTANTIATE_TEST_SUITE_P(LensesAndWalls, StillShotsFromWrongPrior,
                          ::testing::Values(StillShotCase{"sonnar", 0.0, 0.5},
                                            StillShotCase{"tessar", 0.0, 0.5},
-                                           StillShotCase{"sonnar", 180.0, 1.0}));
+                                           StillShotCase{"sonnar", 180.0, 1.0}),
+                         [](const ::testing::TestParamInfo<StillShotCase>& param_info) {
+                           return param_info.param.lens +
+                                  (param_info.param.facing_deg == 0.0 ? "EastWall" : "WestWall");
+                         });
 
 // The shots as a native recording with ground truth, run as `autocal run --stills` does.
 TEST(StillShots, RunJudgesTheAttemptsAndComparesWithTheTruth) {
