@@ -4,9 +4,9 @@
 #include <cmath>
 #include <numeric>
 #include <optional>
-#include <tuple>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -280,7 +280,7 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   }
   for (size_t i = 0; i < shots.size(); ++i) {
     if (shots[i].cols != prior.width || shots[i].rows != prior.height) {
-      throw Error("still shots: shot " + std::to_string(i) + " is " +
+      throw Error("still shots: shot " + std::to_string(i + 1) + " is " +
                   std::to_string(shots[i].cols) + "x" + std::to_string(shots[i].rows) +
                   ", the calibration is for " + std::to_string(prior.width) + "x" +
                   std::to_string(prior.height));
