@@ -8,6 +8,7 @@
 #include <QStringList>
 
 #include "app/cli_commands.h"
+#include "pipeline/self_calibration.h"
 #include "pipeline/version.h"
 
 namespace {
@@ -54,6 +55,7 @@ void PrintUsage(std::FILE* out) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  autocal::QuietSolverWarnings();
   QCoreApplication app(argc, argv);
   QCoreApplication::setApplicationName("autocal");
   QCoreApplication::setApplicationVersion(autocal::kVersion);

@@ -11,6 +11,7 @@
 #include <QStringList>
 #include <QTimer>
 
+#include "pipeline/self_calibration.h"
 #include "pipeline/version.h"
 #include "widgets/main_window.h"
 #include "widgets/scene_view.h"
@@ -67,6 +68,7 @@ Options Configure(QCommandLineParser* parser) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  autocal::QuietSolverWarnings();
   QCoreApplication::setOrganizationName(QStringLiteral("autocal"));
   QCoreApplication::setApplicationName(QStringLiteral("autocal-workbench"));
   QCoreApplication::setApplicationVersion(QString::fromLatin1(autocal::kVersion));

@@ -9,6 +9,7 @@
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
+#include <glog/logging.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
@@ -575,5 +576,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   result.reason = report.str();
   return result;
 }
+
+void QuietSolverWarnings() { FLAGS_minloglevel = google::GLOG_ERROR; }
 
 }  // namespace autocal

@@ -101,4 +101,10 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
                                     const CameraIntrinsics& prior,
                                     const SelfCalibrationOptions& options);
 
+// Ceres logs each trial step its linear solver refuses ("Linear solver failure ... Matrix
+// not positive definite") as a warning on stderr, though the solve goes on and its outcome
+// is reported; programs call this once at start so their output is not drowned in them.
+// Errors still show.
+void QuietSolverWarnings();
+
 }  // namespace autocal

@@ -7,6 +7,7 @@
 #include <functional>
 #include <vector>
 
+#include <glog/logging.h>
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
@@ -122,6 +123,19 @@ std::vector<Eigen::Isometry3d> Walk(const std::function<Eigen::Isometry3d(double
 Eigen::Isometry3d LookingAbout(double f) {
   return CamFromWorld({0.04 * f, -0.5 + 0.4 * std::sin(f / 9), 1.4 + 0.03 * std::sin(f)},
                       25 + 22 * std::sin(f / 7), -18 + 10 * std::sin(f / 5), 6 * std::sin(f / 4));
+}
+
+// Ceres' warnings (a refused trial step) leave stderr; errors still reach it.
+TEST(SelfCalibration, QuietSolverWarningsSilencesWarningsNotErrors) {
+  const int before = FLAGS_minloglevel;
+  QuietSolverWarnings();
+  testing::internal::CaptureStderr();
+  LOG(WARNING) << "autocal-test-warning";
+  LOG(ERROR) << "autocal-test-error";
+  const std::string printed = testing::internal::GetCapturedStderr();
+  FLAGS_minloglevel = before;
+  EXPECT_EQ(printed.find("autocal-test-warning"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("autocal-test-error"), std::string::npos) << printed;
 }
 
 TEST(SelfCalibration, DefaultOptionsAreValid) {
