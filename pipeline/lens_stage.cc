@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
+#include <iterator>
 
 #include "pipeline/stopwatch.h"
 
@@ -44,6 +46,8 @@ bool LensOptions::Check(std::string* error) const {
     why = "pool_per_cell must be at least 1";
   } else if (estimate_every_frames < 1) {
     why = "estimate_every_frames must be at least 1";
+  } else if (estimate_per_cell < 1) {
+    why = "estimate_per_cell must be at least 1";
   }
   if (why.empty()) return true;
   if (error) *error = why;
@@ -97,6 +101,15 @@ void LensStage::Pool(const RadonSnake& snake, cv::Size image_size) {
   AddShape(snake.InnerVertices(), image_size);
 }
 
+std::vector<LineObservation> LensStage::NewestShapes(int per_bin) const {
+  std::vector<LineObservation> shapes;
+  for (const auto& [key, bin] : pool_) {
+    shapes.insert(shapes.end(), bin.end() - std::min<std::ptrdiff_t>(per_bin, std::ssize(bin)),
+                  bin.end());
+  }
+  return shapes;
+}
+
 std::vector<LineObservation> LensStage::PooledShapes() const {
   std::vector<LineObservation> shapes;
   for (const auto& [key, bin] : pool_) shapes.insert(shapes.end(), bin.begin(), bin.end());
@@ -129,11 +142,13 @@ LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,
   snapshot.lines_ms = MillisecondsSince(start);
 
   ++frames_;
-  if (frames_ % options_.estimate_every_frames == 0 &&
-      int(pooled_shapes()) >= options_.plumb_line.min_lines) {
+  if (frames_ % options_.estimate_every_frames == 0) {
     start = std::chrono::steady_clock::now();
-    latest_ = EstimateNow(calibration);
-    snapshot.distortion_ms = MillisecondsSince(start);
+    const std::vector<LineObservation> newest = NewestShapes(options_.estimate_per_cell);
+    if (int(newest.size()) >= options_.plumb_line.min_lines) {
+      latest_ = EstimateDistortion(newest, calibration, options_.plumb_line);
+      snapshot.distortion_ms = MillisecondsSince(start);
+    }
   }
   snapshot.distortion = latest_;
   snapshot.pooled_shapes = static_cast<int>(pooled_shapes());

@@ -32,6 +32,9 @@ struct LensOptions {
   int pool_grid = 8;               // Cells across the image (rows by aspect).
   int pool_per_cell = 8;           // Newest shapes kept per cell and orientation.
   int estimate_every_frames = 30;  // Distortion re-estimated this often (frames).
+  // Box 2's estimate takes the newest this many of each cell and orientation (box 10 takes
+  // the whole pool): its solve's time grows faster than the number of shapes.
+  int estimate_per_cell = 4;
 
   // Checks this struct and every nested one; the message names the field.
   bool Check(std::string* error) const;
@@ -72,6 +75,9 @@ class LensStage {
   size_t pooled_shapes() const;
   // The snake shapes pooled so far (raw pixels), bin by bin over the image.
   std::vector<LineObservation> PooledShapes() const;
+  // The newest `per_bin` shapes of every bin of the pool (box 2's periodic estimate takes
+  // `estimate_per_cell` of them).
+  std::vector<LineObservation> NewestShapes(int per_bin) const;
   // Changes whenever a shape joins the pool: a copy of the pool stays current until then.
   uint64_t pool_version() const { return pool_version_; }
 

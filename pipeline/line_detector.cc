@@ -142,49 +142,51 @@ struct EdgePixel {
 };
 
 // Edge pixels within the inlier distance of the infinite line (rho, theta) whose gradient
-// runs along the line's normal, ordered along the line. Integer work only: this runs for
-// every Radon peak. Skips pixels already claimed by a segment; `visits` (CV_32S) marks
-// pixels looked at in this call with `stamp`.
+// runs along the line's normal, ordered along the line, between s_from and s_to. This runs
+// for every Radon peak: the band is walked along the line's major axis, each pixel once,
+// so nothing has to be marked as seen. Skips pixels already claimed by a segment.
 std::vector<EdgePixel> CollectEdgePixels(const cv::Mat& edges, const cv::Mat& claimed,
                                          const Gradients& gradients, double rho, double theta,
-                                         const LineDetectorOptions& options, cv::Mat& visits,
-                                         int stamp, double s_from = -1e9, double s_to = 1e9) {
+                                         const LineDetectorOptions& options, double s_from = -1e9,
+                                         double s_to = 1e9) {
   const Eigen::Vector2d normal(std::cos(theta), std::sin(theta));
   const Eigen::Vector2d direction(-normal.y(), normal.x());
-  const Eigen::Vector2d foot = rho * normal;
   const double cos_limit = std::cos(options.max_normal_angle_deg * M_PI / 180.0);
-  const int band = static_cast<int>(std::ceil(options.inlier_distance_px));
-  // The stretch of the line (widened by the band) that crosses the image, within
-  // [s_from, s_to].
-  double s_min = std::max(s_from, -std::hypot(edges.cols, edges.rows));
-  double s_max = std::min(s_to, std::hypot(edges.cols, edges.rows));
-  const double low[2] = {-band - 1.0, -band - 1.0};
-  const double high[2] = {edges.cols + band + 1.0, edges.rows + band + 1.0};
-  for (int axis = 0; axis < 2; ++axis) {
-    if (std::abs(direction[axis]) < 1e-12) continue;
-    const double a = (low[axis] - foot[axis]) / direction[axis];
-    const double b = (high[axis] - foot[axis]) / direction[axis];
-    s_min = std::max(s_min, std::min(a, b));
-    s_max = std::min(s_max, std::max(a, b));
+  // Walk along x where the line is nearer horizontal, else along y (the band is then
+  // at most 2 * inlier distance * sqrt(2) pixels across the walk).
+  const bool along_x = std::abs(normal.y()) >= std::abs(normal.x());
+  const int major_size = along_x ? edges.cols : edges.rows;
+  const int minor_size = along_x ? edges.rows : edges.cols;
+  const double major_cos = along_x ? normal.x() : normal.y();
+  const double minor_cos = along_x ? normal.y() : normal.x();
+  const double half_band = options.inlier_distance_px / std::abs(minor_cos);
+  // The stretch [s_from, s_to] of the line spans these columns (rows), widened by the band.
+  int major_begin = 1, major_end = major_size - 1;
+  const double major_foot = rho * major_cos, major_step = along_x ? direction.x() : direction.y();
+  if (s_from > -1e8 && s_to < 1e8) {
+    const double a = major_foot + s_from * major_step, b = major_foot + s_to * major_step;
+    const double margin = options.inlier_distance_px + 1.0;
+    major_begin = std::max(major_begin, int(std::floor(std::min(a, b) - margin)));
+    major_end = std::min(major_end, int(std::ceil(std::max(a, b) + margin)) + 1);
   }
   std::vector<EdgePixel> pixels;
-  for (double s = s_min; s <= s_max; s += 1.0) {
-    const Eigen::Vector2d on_line = foot + s * direction;
-    for (int k = -band; k <= band; ++k) {
-      const Eigen::Vector2d q = on_line + k * normal;
-      const int x = static_cast<int>(std::lround(q.x())), y = static_cast<int>(std::lround(q.y()));
-      if (x < 1 || y < 1 || x >= edges.cols - 1 || y >= edges.rows - 1) continue;
-      if (!edges.at<uint8_t>(y, x) || claimed.at<uint8_t>(y, x) || visits.at<int>(y, x) == stamp) {
-        continue;
-      }
-      visits.at<int>(y, x) = stamp;
+  for (int major = major_begin; major < major_end; ++major) {
+    // Where the line crosses this column (row), and the band around it.
+    const double centre = (rho - major * major_cos) / minor_cos;
+    const int low = std::max(1, int(std::ceil(centre - half_band)));
+    const int high = std::min(minor_size - 2, int(std::floor(centre + half_band)));
+    for (int minor = low; minor <= high; ++minor) {
+      const int x = along_x ? major : minor, y = along_x ? minor : major;
+      if (!edges.at<uint8_t>(y, x) || claimed.at<uint8_t>(y, x)) continue;
       const Eigen::Vector2d pixel(x, y);
       if (std::abs(normal.dot(pixel) - rho) > options.inlier_distance_px) continue;
+      const double s = direction.dot(pixel);
+      if (s < s_from || s > s_to) continue;
       // The edge must run along the line: its gradient close to the line's normal.
       const Eigen::Vector2d gradient = gradients.At(x, y);
       const double magnitude = gradient.norm();
       if (magnitude <= 0 || std::abs(gradient.dot(normal)) < cos_limit * magnitude) continue;
-      pixels.push_back({direction.dot(pixel), x, y});
+      pixels.push_back({s, x, y});
     }
   }
   std::sort(pixels.begin(), pixels.end(),
@@ -217,8 +219,6 @@ std::vector<LineSegment> DetectLines(const Gradients& gradients,
 
   std::vector<LineSegment> segments;
   cv::Mat claimed = cv::Mat::zeros(edges.size(), CV_8U);
-  cv::Mat visits = cv::Mat::zeros(edges.size(), CV_32S);
-  int stamp = 0;
   for (const cv::Vec3f& peak : peaks) {
     if (int(segments.size()) >= options.max_lines) break;
     double rho = peak[0], theta = peak[1];
@@ -229,7 +229,7 @@ std::vector<LineSegment> DetectLines(const Gradients& gradients,
     });
     if (taken) continue;
     std::vector<EdgePixel> pixels =
-        CollectEdgePixels(edges, claimed, gradients, rho, theta, options, visits, ++stamp);
+        CollectEdgePixels(edges, claimed, gradients, rho, theta, options);
     if (int(pixels.size()) < min_votes) continue;
     // The Radon bins quantize the peak: refit on its pixels and look again.
     std::vector<Eigen::Vector2d> xy;
@@ -245,7 +245,7 @@ std::vector<LineSegment> DetectLines(const Gradients& gradients,
     const double margin = options.max_gap_px + 2.0;
     const double s_first = along.dot(first), s_last = along.dot(last);
     pixels =
-        CollectEdgePixels(edges, claimed, gradients, rho, theta, options, visits, ++stamp,
+        CollectEdgePixels(edges, claimed, gradients, rho, theta, options,
                           std::min(s_first, s_last) - margin, std::max(s_first, s_last) + margin);
     if (int(pixels.size()) < min_votes) continue;
     const Eigen::Vector2d normal(std::cos(theta), std::sin(theta));
