@@ -821,7 +821,7 @@ void MainWindow::onRateTick() {
   const uint64_t painted = video_->framesPainted();
   const uint64_t frames = painted - frames_painted_at_tick_;
   frames_painted_at_tick_ = painted;
-  if (!playback_->isPlaying() || seconds <= 0.0) {
+  if ((!playback_->isPlaying() && !live_) || seconds <= 0.0) {
     display_fps_ = 0.0;
     status_display_->clear();
     return;

@@ -72,7 +72,7 @@ class MainWindow : public QMainWindow {
   QAction* overlayAction(OverlayLayer layer) const;
   QAction* viewModeAction(VideoView::ViewMode mode) const;
   // Frames put on screen per second by the video view, over the last second while playing
-  // (0 when paused).
+  // or showing a live source (0 when paused).
   double displayFps() const { return display_fps_; }
 
  public slots:
