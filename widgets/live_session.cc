@@ -71,6 +71,8 @@ bool LiveSession::connectSource(const QString& input, const QString& accel,
   {
     std::lock_guard lock(mutex_);
     status_ = Status();
+    latest_.reset();
+    latest_frame_ = LiveFrame();  // The last session's frame is not this one's.
     status_.source = QString::fromStdString(source_->Describe());
     status_.camera.state = DeviceState::kConnecting;
   }
