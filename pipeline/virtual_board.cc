@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace autocal {
@@ -53,19 +54,40 @@ VirtualBoard AttachBoard(int plane_id, const Eigen::Isometry3d& world_from_plane
   return board;
 }
 
+namespace {
+
+// Squared radius (ideal normalized coordinates) of the rays the image's corners see, with a
+// quarter more: beyond the image's own field the lens model means nothing (a strong
+// barrel's polynomial folds back, and a far point of a board lying along the view would be
+// drawn near the image centre). Infinite when no corner can be unprojected.
+double DrawableFieldRadius2(const CameraIntrinsics& camera) {
+  double widest = 0.0;
+  for (const Eigen::Vector2d& corner :
+       {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(camera.width, 0.0),
+        Eigen::Vector2d(0.0, camera.height), Eigen::Vector2d(camera.width, camera.height)}) {
+    if (const auto ray = Unproject(camera, corner)) widest = std::max(widest, ray->squaredNorm());
+  }
+  return widest > 0.0 ? 1.25 * 1.25 * widest : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
+
 BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d& cam_from_world,
                              const CameraIntrinsics& camera, const VirtualBoardOptions& options) {
   BoardProjection projection;
   const Eigen::Isometry3d cam_from_plane = cam_from_world * board.world_from_plane;
+  const double field_radius2 = DrawableFieldRadius2(camera);
   auto image_of = [&](double i, double j, Eigen::Vector2d* pixel) {
     const Eigen::Vector2d uv = board.origin + board.square * Eigen::Vector2d(i, j);
     const Eigen::Vector3d cam = cam_from_plane * Eigen::Vector3d(uv.x(), uv.y(), 0.0);
     if (cam.z() <= 1e-6) return false;
+    if ((cam.head<2>() / cam.z()).squaredNorm() > field_radius2) return false;
     *pixel = Project(camera, cam);
     return true;
   };
   const int steps = options.samples_per_square;
-  // Lines of constant i, then of constant j; a line is cut where it goes behind the camera.
+  // Lines of constant i, then of constant j; a line is cut where it goes behind the camera
+  // or out of the lens's field.
   for (int direction = 0; direction < 2; ++direction) {
     const int across = direction == 0 ? board.squares_x : board.squares_y;
     const int along = direction == 0 ? board.squares_y : board.squares_x;
