@@ -14,8 +14,8 @@ namespace {
 struct LensRun {
   CameraIntrinsics truth;
   PlumbLineResult estimate;  // From the whole pool.
-  // The stage's own periodic estimate on the last frame, from the newest shapes of each
-  // cell (LensOptions::estimate_per_cell), and what it cost.
+  // The stage's own periodic estimate on the last frame, from the newest 4 shapes of each
+  // cell and orientation (LensOptions::estimate_per_cell), and what it cost.
   PlumbLineResult periodic;
   double periodic_ms = 0.0;
   // Distances (px, in the image) of confirmed snake hinges to the true curve of their
@@ -48,6 +48,7 @@ LensRun RunOffice(const std::string& lens, double seconds) {
 
   LensOptions options;
   options.estimate_every_frames = int(sequence->frame_count());  // One, on the last frame.
+  options.estimate_per_cell = 4;
   LensStage stage(options);
   // Render the next frame on the other core while this one is processed.
   std::future<cv::Mat> next =
