@@ -21,7 +21,7 @@ namespace autocal {
 
 struct AcceptanceOptions {
   double max_rms_px = 1.0;  // Attempts with a larger reprojection RMS are rejected.
-  double max_sigma = 4.0;  // An attempt fits the trend (or another attempt) within this many sigma.
+  double max_sigma = 3.0;  // An attempt fits the trend (or another attempt) within this many sigma.
   // Least sigmas of an attempt, added to its covariance: box 10's scatter beyond what its
   // covariance admits (model error, correlated track noise).
   double focal_floor_fraction = 0.003;  // fx, fy, as a fraction of the pre-mission focal length.

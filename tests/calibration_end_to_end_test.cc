@@ -81,10 +81,10 @@ TEST(CalibrationEndToEnd, SonnarConvergesFromAWrongStart) { ExpectConvergesFromA
 
 TEST(CalibrationEndToEnd, TessarConvergesFromAWrongStart) { ExpectConvergesFromAWrongStart("tessar"); }
 
-// The issue asks fx within 0.5% of the drifting truth. Measured: worst 0.40-0.52% (fx) over
-// the 20 s: box 10's estimates on the first 8 s of this walk run 0.3-0.5% low, and the
-// trend lags the drift by about 0.1%. Asserted here: within 0.75% throughout, and within
-// 0.5% at the end (the truth moves 0.67% over the run, so a trend that did not follow fails).
+// The issue asks fx within 0.5% of the drifting truth and cx, cy within 2 px. Measured
+// worst after convergence: fx -0.39% (sonnar) and -0.38% (tessar), cx 0.94 and 1.20 px;
+// box 10's single attempts run 0.3% low on the first seconds of this walk (track drift,
+// docs/calibration.md), so fy, which the issue does not name here, is held to 0.75%.
 void ExpectFollowsDrift(const std::string& lens) {
   const ScenarioRun run = RunScenario("drift,lens=" + lens + ",seconds=20");
   ASSERT_TRUE(run.report.truth);
@@ -95,7 +95,7 @@ void ExpectFollowsDrift(const std::string& lens) {
   ASSERT_TRUE(truth.converged_at_s);
   ASSERT_TRUE(truth.worst_after_convergence);
   const CalibrationError& worst = *truth.worst_after_convergence;
-  EXPECT_LT(std::abs(worst.fx_percent), 0.75) << "fx follows the drifting truth";
+  EXPECT_LT(std::abs(worst.fx_percent), 0.5) << "fx follows the drifting truth";
   EXPECT_LT(std::abs(worst.fy_percent), 0.75) << "fy follows the drifting truth";
   EXPECT_LT(std::abs(worst.cx_px), 2.0) << "cx within 2 px of the drifting truth";
   EXPECT_LT(std::abs(worst.cy_px), 2.0) << "cy within 2 px of the drifting truth";
@@ -124,11 +124,10 @@ void ExpectCatchesAJolt(const std::string& lens) {
   std::printf("alarm %.2f s after the jolt\n", 1e-9 * double(alarm.t_ns - jolt_ns));
   EXPECT_GE(alarm.t_ns, jolt_ns) << "no alarm before the jolt";
   // The issue asks 3 s. An alarm needs two consistent attempts off the trend; windows (2 s)
-  // that straddle the jolt give no update or an estimate between the two focal lengths, so
-  // the delay is 2.5 s at best and moves by whole attempts (0.5 s) with small changes in
-  // the solve: measured 1.5-3.5 s over this session's versions of box 10 (now 3.50 s
-  // sonnar, 2.00 s tessar). Asserted: 4.5 s.
-  EXPECT_LE(alarm.t_ns - jolt_ns, int64_t(4.5e9)) << "the alarm soon after the jolt";
+  // that straddle the jolt give estimates between the two focal lengths, which the trend
+  // must not take for drift (acceptance.max_sigma 3; at 4 they were accepted and the alarm
+  // came 4.5 s after the jolt). Measured 2.00 s (sonnar) and 1.50 s (tessar).
+  EXPECT_LE(alarm.t_ns - jolt_ns, int64_t(3e9)) << "the alarm within 3 s of the jolt";
   // Within 10 s the output is back within 0.5% of the new focal length, and stays there.
   const GroundTruthReport& truth = *run.report.truth;
   for (size_t i = 0; i < truth.t_ns.size(); ++i) {
