@@ -145,9 +145,10 @@ int Bench(const QStringList& arguments) {
       {"seconds", "Seconds of recording (default 10).", "s", "10"},
       {"json", "Write the figures as JSON here too.", "file"},
       {"judge-after",
-       "Offline, judge each attempt this many frames after it is made (default 0; see "
-       "docs/runtime.md).",
-       "frames", "0"},
+       "Offline, judge each attempt this many frames after it is made (default " +
+           QString::number(RuntimeOptions{}.judge_after_frames) + ", as autocal run; see "
+           "docs/runtime.md).",
+       "frames", QString::number(RuntimeOptions{}.judge_after_frames)},
       {"stream",
        "Render frames as the pipeline asks for them instead of beforehand (rendering is then "
        "timed): for long sessions, with the resident size sampled every 10% of the run."},
