@@ -5,7 +5,7 @@ set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/common.bash"
 
 "$autocal" --help | grep -qE '^  run ' || fail "--help lists run"
 
@@ -54,25 +54,15 @@ sed -i 's/^material.window_s = .*/material.window_s = 3/' "$dir/s.settings"
 grep -qx 'material.window_s = 3' "$dir/s2.settings" || fail "--settings read"
 grep -qx 'material.max_lines = 10' "$dir/s2.settings" || fail "--set applied after --settings"
 
-expect() {  # expect CODE PATTERN ARGS...: exit code and a message on stderr.
-  local code=$1 pattern=$2
-  shift 2
-  set +e
-  "$autocal" run "$@" >/dev/null 2>"$dir/err"
-  local got=$?
-  set -e
-  [[ $got -eq $code ]] || fail "run $* exits $got, expected $code: $(cat "$dir/err")"
-  grep -q -- "$pattern" "$dir/err" || fail "run $*: expected '$pattern' in: $(cat "$dir/err")"
-}
-expect 2 '--input is required'
-expect 2 '--export and --format go together' --input sim:static --export "$dir/x.yaml"
-expect 1 'no-such-dir' --input "$dir/no-such-dir"
-expect 1 "unknown option 'material.windw_s'" --input sim:static --set material.windw_s=3
-expect 1 'must be in' --input sim:static --set material.window_s=-1
-expect 1 'unknown calibration format' --input sim:static --export "$dir/x" --format matlab
-expect 1 'already holds a calibration history' --input sim:static --history "$dir/h.sqlite"
+expect_run 2 '--input is required'
+expect_run 2 '--export and --format go together' --input sim:static --export "$dir/x.yaml"
+expect_run 1 'no-such-dir' --input "$dir/no-such-dir"
+expect_run 1 "unknown option 'material.windw_s'" --input sim:static --set material.windw_s=3
+expect_run 1 'must be in' --input sim:static --set material.window_s=-1
+expect_run 1 'unknown calibration format' --input sim:static --export "$dir/x" --format matlab
+expect_run 1 'already holds a calibration history' --input sim:static --history "$dir/h.sqlite"
 printf 'material.window_s 3\n' >"$dir/bad.settings"
-expect 1 'bad.settings:1:' --input sim:static --settings "$dir/bad.settings"
+expect_run 1 'bad.settings:1:' --input sim:static --settings "$dir/bad.settings"
 # A 320x240 calibration for 640x480 frames.
 "$autocal" run --input "sim:static,seconds=1,resolution=640x480" --prior "$dir/final.yaml" \
   >/dev/null 2>"$dir/err" && fail "a 320x240 prior accepted for 640x480 frames"

@@ -8,7 +8,7 @@ set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/common.bash"
 data=/usr/share/doc/opencv-doc/examples/data
 [[ -f "$data/left01.jpg" ]] || fail "OpenCV's sample images are missing: apt-get install opencv-doc"
 
@@ -38,22 +38,12 @@ attempts=$(grep -oE '"attempted": [0-9]+' "$dir/left.json" | grep -oE '[0-9]+$')
 grep -q '^error against the truth:' "$dir/out" || fail "error against the truth reported"
 grep -q '"error": {"final": {"fx_percent":' "$dir/sim.json" || fail "summary has error"
 
-expect() {  # expect CODE PATTERN ARGS...: exit code and a message on stderr.
-  local code=$1 pattern=$2
-  shift 2
-  set +e
-  "$autocal" run "$@" >/dev/null 2>"$dir/err"
-  local got=$?
-  set -e
-  [[ $got -eq $code ]] || fail "run $* exits $got, expected $code: $(cat "$dir/err")"
-  grep -q -- "$pattern" "$dir/err" || fail "run $*: expected '$pattern' in: $(cat "$dir/err")"
-}
 mkdir "$dir/two" "$dir/broken"
 cp "$data/graf1.png" "$data/graf3.png" "$dir/two/"
-expect 1 '2 images; still shots need at least 3' --input "$dir/two" --stills
+expect_run 1 '2 images; still shots need at least 3' --input "$dir/two" --stills
 cp "$data"/left0[1-3].jpg "$dir/broken/"
 echo 'not a picture' >"$dir/broken/left04.jpg"
-expect 1 'left04.jpg: cannot be decoded' --input "$dir/broken" --stills
-expect 2 '--stills goes with a recording or an image folder' --input camera:0 --stills
-expect 2 '--stills goes with a recording or an image folder' --input sim:office --live --stills
+expect_run 1 'left04.jpg: cannot be decoded' --input "$dir/broken" --stills
+expect_run 2 '--stills goes with a recording or an image folder' --input camera:0 --stills
+expect_run 2 '--stills goes with a recording or an image folder' --input sim:office --live --stills
 echo PASS
