@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "pipeline/lens_stage.h"
+#include "tests/test_util.h"
 
 namespace autocal {
 namespace {
@@ -47,15 +48,7 @@ TEST(DistortionReal, StraightLinesInOpenCvSampleShotsGiveTheTargetBasedDistortio
   std::vector<cv::Mat> rvecs, tvecs;
   const double rms_reference =
       cv::calibrateCamera(board, corners, {640, 480}, k, d, rvecs, tvecs, model);
-  CameraIntrinsics reference;
-  reference.width = 640;
-  reference.height = 480;
-  reference.fx = k.at<double>(0, 0);
-  reference.fy = k.at<double>(1, 1);
-  reference.cx = k.at<double>(0, 2);
-  reference.cy = k.at<double>(1, 2);
-  reference.k1 = d.at<double>(0);
-  reference.k2 = d.at<double>(1);
+  const CameraIntrinsics reference = test::FromOpenCv(k, d, {640, 480});
 
   // Ours, from the same focal length and principal point but no distortion.
   CameraIntrinsics start = reference;

@@ -21,6 +21,7 @@
 
 #include "pipeline/calibration_error.h"
 #include "pipeline/self_calibration.h"
+#include "tests/test_util.h"
 
 namespace autocal {
 namespace {
@@ -64,16 +65,7 @@ CameraIntrinsics TargetBasedCalibration(const Shots& shots, double* rms_px, cv::
   std::vector<cv::Mat> rvecs, tvecs;
   *rms_px = cv::calibrateCamera(shots.board, shots.corners, {640, 480}, k, d, rvecs, tvecs,
                                 *sigma, extrinsic_sigma, per_view, kModel);
-  CameraIntrinsics reference;
-  reference.width = 640;
-  reference.height = 480;
-  reference.fx = k.at<double>(0, 0);
-  reference.fy = k.at<double>(1, 1);
-  reference.cx = k.at<double>(0, 2);
-  reference.cy = k.at<double>(1, 2);
-  reference.k1 = d.at<double>(0);
-  reference.k2 = d.at<double>(1);
-  return reference;
+  return test::FromOpenCv(k, d, {640, 480});
 }
 
 // The corners as box 9 would hand them on: one plane, a track per corner (its index in the

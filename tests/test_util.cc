@@ -39,6 +39,23 @@ CameraIntrinsics SonnarLikeCamera(double k1, double k2) {
   return c;
 }
 
+CameraIntrinsics FromOpenCv(const cv::Mat& camera_matrix, const cv::Mat& distortion,
+                            cv::Size size) {
+  CameraIntrinsics c;
+  c.width = size.width;
+  c.height = size.height;
+  c.fx = camera_matrix.at<double>(0, 0);
+  c.fy = camera_matrix.at<double>(1, 1);
+  c.cx = camera_matrix.at<double>(0, 2);
+  c.cy = camera_matrix.at<double>(1, 2);
+  c.k1 = distortion.at<double>(0);
+  c.k2 = distortion.at<double>(1);
+  c.p1 = distortion.at<double>(2);
+  c.p2 = distortion.at<double>(3);
+  if (distortion.total() > 4) c.k3 = distortion.at<double>(4);
+  return c;
+}
+
 void WriteTextFile(const std::filesystem::path& path, const std::string& contents) {
   std::filesystem::create_directories(path.parent_path());
   std::ofstream out(path, std::ios::binary);

@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <string>
 
+#include <opencv2/core.hpp>
+
 #include "pipeline/camera_model.h"
 
 namespace autocal::test {
@@ -26,6 +28,11 @@ class TempDir {
 // point a little off centre and fx, fy slightly unequal so swapped fields show; barrel
 // distortion k1, k2.
 CameraIntrinsics SonnarLikeCamera(double k1 = -0.3, double k2 = 0.1);
+
+// OpenCV's camera matrix and distortion vector (k1, k2, p1, p2[, k3]), as cv::calibrateCamera
+// returns them, for an image of `size`.
+CameraIntrinsics FromOpenCv(const cv::Mat& camera_matrix, const cv::Mat& distortion,
+                            cv::Size size);
 
 // Writes `contents` to `path`, creating parent folders.
 void WriteTextFile(const std::filesystem::path& path, const std::string& contents);
