@@ -195,10 +195,8 @@ std::shared_ptr<const AttemptOutcome> MotionHalf::Judge(const CalibrationJob& jo
   if (result.usable) {
     outcome->cam_from_world = result.cam_from_world;
     for (const PlaneEstimate& plane : result.planes) {
-      std::vector<Eigen::Vector2d> points;
-      for (const auto& [track, uv] : plane.points) points.push_back(uv);
       outcome->boards.push_back(
-          AttachBoard(plane.id, plane.world_from_plane, points, options_.board));
+          AttachBoard(plane.id, plane.world_from_plane, plane.points, options_.board));
     }
   }
   const Verdict verdict = outcome->record.verdict;

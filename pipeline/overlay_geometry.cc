@@ -129,6 +129,23 @@ std::optional<Eigen::Isometry3d> ViewPoseAt(const AttemptOutcome& attempt, int64
   return pose;
 }
 
+std::vector<PlacedBoard> PlaceBoards(const AttemptOutcome& attempt, int64_t t_ns) {
+  std::vector<PlacedBoard> placed;
+  if (const std::optional<Eigen::Isometry3d> pose = ViewPoseAt(attempt, t_ns)) {
+    for (const VirtualBoard& board : attempt.boards) placed.push_back({board, *pose});
+  }
+  return placed;
+}
+
+std::vector<PlacedBoard> PlaceNewestBoards(
+    const std::vector<std::shared_ptr<const AttemptOutcome>>& attempts, int64_t t_ns) {
+  for (auto attempt = attempts.rbegin(); attempt != attempts.rend(); ++attempt) {
+    std::vector<PlacedBoard> placed = PlaceBoards(**attempt, t_ns);
+    if (!placed.empty()) return placed;
+  }
+  return {};
+}
+
 OverlayGeometry MakeOverlayGeometry(const FrameSnapshot& snapshot,
                                     const std::vector<PlacedBoard>& boards,
                                     const VirtualBoardOptions& board_options, OverlaySpace space) {
@@ -184,7 +201,16 @@ OverlayGeometry MakeOverlayGeometry(const FrameSnapshot& snapshot,
     out.planes.push_back(std::move(outline));
   }
 
+  // A board only where this frame's own tracks confirm its pose (raw pixels, as tracked).
+  std::vector<std::pair<int, Eigen::Vector2d>> seen;
+  seen.reserve(motion.tracks.size());
+  for (const Track& track : motion.tracks) seen.emplace_back(track.id, ToEigen(track.current()));
+  const double max_error_px =
+      board_options.max_track_error * std::hypot(working.width, working.height);
   for (const PlacedBoard& placed : boards) {
+    const std::optional<double> error = BoardTrackError(
+        placed.board, placed.cam_from_world, working, seen, board_options.min_tracks_seen);
+    if (!error || *error > max_error_px) continue;
     BoardProjection projection =
         ProjectBoard(placed.board, placed.cam_from_world, camera, board_options);
     if (!projection.lines.empty()) {

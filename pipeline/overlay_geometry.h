@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -79,9 +80,18 @@ struct PlacedBoard {
 // outside the span of the views or next to a view box 10 left out.
 std::optional<Eigen::Isometry3d> ViewPoseAt(const AttemptOutcome& attempt, int64_t t_ns);
 
+// The boards of `attempt` placed at the camera's pose at `t_ns`; none when its views do
+// not reach that time.
+std::vector<PlacedBoard> PlaceBoards(const AttemptOutcome& attempt, int64_t t_ns);
+// The boards of the newest of `attempts` (in judging order) that places some at `t_ns`.
+std::vector<PlacedBoard> PlaceNewestBoards(
+    const std::vector<std::shared_ptr<const AttemptOutcome>>& attempts, int64_t t_ns);
+
 // The overlay of a frame in `space`, with `boards` projected through the frame's working
-// calibration (the one its boxes 1-6 used). Points that cannot be undistorted (beyond the
-// fold of a strong barrel) are left out.
+// calibration (the one its boxes 1-6 used). A board is drawn only when the frame's tracks
+// confirm its pose (BoardTrackError within board_options' limits): a view box 10 posed
+// wrongly would otherwise put a board where no plane is. Points that cannot be undistorted
+// (beyond the fold of a strong barrel) are left out.
 OverlayGeometry MakeOverlayGeometry(const FrameSnapshot& snapshot,
                                     const std::vector<PlacedBoard>& boards,
                                     const VirtualBoardOptions& board_options, OverlaySpace space);

@@ -5,6 +5,8 @@
 #include <limits>
 #include <sstream>
 
+#include <opencv2/imgproc.hpp>
+
 namespace autocal {
 
 bool VirtualBoardOptions::Check(std::string* error) const {
@@ -13,6 +15,12 @@ bool VirtualBoardOptions::Check(std::string* error) const {
     why << "squares_x and squares_y must be at least 1";
   } else if (samples_per_square < 1) {
     why << "samples_per_square must be at least 1";
+  } else if (min_tracks_seen < 1) {
+    why << "min_tracks_seen must be at least 1";
+  } else if (!(max_track_error > 0.0)) {
+    why << "max_track_error must be positive";
+  } else if (!(outlier_factor >= 1.0)) {
+    why << "outlier_factor must be at least 1";
   }
   if (why.str().empty()) return true;
   if (error) *error = why.str();
@@ -27,30 +35,68 @@ Eigen::Vector3d VirtualBoard::Corner(int i, int j) const {
 VirtualBoard AttachBoard(int plane_id, const Eigen::Isometry3d& world_from_plane,
                          const std::vector<Eigen::Vector2d>& tracked_points,
                          const VirtualBoardOptions& options) {
+  std::vector<std::pair<int, Eigen::Vector2d>> numbered;
+  numbered.reserve(tracked_points.size());
+  for (const Eigen::Vector2d& p : tracked_points) {
+    numbered.emplace_back(static_cast<int>(numbered.size()), p);
+  }
+  return AttachBoard(plane_id, world_from_plane, numbered, options);
+}
+
+VirtualBoard AttachBoard(int plane_id, const Eigen::Isometry3d& world_from_plane,
+                         const std::vector<std::pair<int, Eigen::Vector2d>>& tracked,
+                         const VirtualBoardOptions& options) {
   VirtualBoard board;
   board.plane_id = plane_id;
   board.world_from_plane = world_from_plane;
   board.squares_x = options.squares_x;
   board.squares_y = options.squares_y;
-  if (tracked_points.empty()) return board;
-  // One corner on the first tracked point, the squares running toward the rest of them
-  // and covering their extent.
-  board.origin = tracked_points.front();
+  if (tracked.empty()) return board;
+  // Box 10 places a few weakly seen tracks far off their plane's patch (on the office walk
+  // one at 400 times the patch's size): a board over them would reach to the plane's
+  // horizon, a fan of lines where no plane was seen. Points farther from the median point
+  // than outlier_factor times the median distance are left out.
+  std::vector<double> us, vs;
+  for (const auto& [track, uv] : tracked) {
+    us.push_back(uv.x());
+    vs.push_back(uv.y());
+  }
+  const auto median = [](std::vector<double> values) {
+    const auto middle = values.begin() + values.size() / 2;
+    std::nth_element(values.begin(), middle, values.end());
+    return *middle;
+  };
+  const Eigen::Vector2d centre(median(us), median(vs));
+  std::vector<double> distances;
+  for (const auto& [track, uv] : tracked) distances.push_back((uv - centre).norm());
+  const double reach_limit = options.outlier_factor * median(distances);
+  for (const auto& entry : tracked) {
+    if ((entry.second - centre).norm() <= reach_limit) board.tracked.push_back(entry);
+  }
+
+  // One corner on the first tracked point, the squares running toward the rest of them,
+  // as large as fits within their extent on both axes (the outline cuts off the rest).
+  board.origin = board.tracked.front().second;
   Eigen::Vector2d low = board.origin, high = board.origin, mean = Eigen::Vector2d::Zero();
-  for (const Eigen::Vector2d& p : tracked_points) {
+  for (const auto& [track, p] : board.tracked) {
     low = low.cwiseMin(p);
     high = high.cwiseMax(p);
-    mean += p / double(tracked_points.size());
+    mean += p / double(board.tracked.size());
   }
   const Eigen::Vector2d toward((mean - board.origin).x() >= 0 ? 1.0 : -1.0,
                                (mean - board.origin).y() >= 0 ? 1.0 : -1.0);
   const Eigen::Vector2d reach((toward.x() > 0 ? high : low).x() - board.origin.x(),
                               (toward.y() > 0 ? high : low).y() - board.origin.y());
-  board.square =
-      std::max(std::abs(reach.x()) / options.squares_x, std::abs(reach.y()) / options.squares_y);
+  const Eigen::Vector2d fits(std::abs(reach.x()) / options.squares_x,
+                             std::abs(reach.y()) / options.squares_y);
+  board.square = fits.minCoeff() > 0.0 ? fits.minCoeff() : fits.maxCoeff();
   if (!(board.square > 0)) board.square = 1.0;
   if (toward.x() < 0) board.origin.x() -= board.square * board.squares_x;
   if (toward.y() < 0) board.origin.y() -= board.square * board.squares_y;
+  std::vector<cv::Point2f> points, hull;
+  for (const auto& [track, p] : board.tracked) points.emplace_back(p.x(), p.y());
+  cv::convexHull(points, hull);
+  for (const cv::Point2f& p : hull) board.outline.emplace_back(p.x, p.y);
   return board;
 }
 
@@ -70,6 +116,38 @@ double DrawableFieldRadius2(const CameraIntrinsics& camera) {
   return widest > 0.0 ? 1.25 * 1.25 * widest : std::numeric_limits<double>::infinity();
 }
 
+// The part [*first, *last] of the segment from `a` (0) to `b` (1) inside the convex polygon
+// `polygon` (either winding; Cyrus-Beck). False when none of it is, or the polygon has no
+// area.
+bool ClipToConvex(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                  const std::vector<Eigen::Vector2d>& polygon, double* first, double* last) {
+  const auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& v) {
+    return u.x() * v.y() - u.y() * v.x();
+  };
+  double area2 = 0.0;
+  for (size_t i = 0; i < polygon.size(); ++i) {
+    area2 += cross(polygon[i], polygon[(i + 1) % polygon.size()]);
+  }
+  if (polygon.size() < 3 || area2 == 0.0) return false;
+  const double winding = area2 > 0.0 ? 1.0 : -1.0;
+  *first = 0.0;
+  *last = 1.0;
+  for (size_t i = 0; i < polygon.size(); ++i) {
+    const Eigen::Vector2d edge = polygon[(i + 1) % polygon.size()] - polygon[i];
+    // Inside is to the left of each edge (counter-clockwise): at + t * slope >= 0.
+    const double at = winding * cross(edge, a - polygon[i]);
+    const double slope = winding * cross(edge, b - a);
+    if (slope == 0.0) {
+      if (at < 0.0) return false;
+    } else if (slope > 0.0) {
+      *first = std::max(*first, -at / slope);
+    } else {
+      *last = std::min(*last, -at / slope);
+    }
+  }
+  return *first < *last;
+}
+
 }  // namespace
 
 BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d& cam_from_world,
@@ -77,8 +155,10 @@ BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d&
   BoardProjection projection;
   const Eigen::Isometry3d cam_from_plane = cam_from_world * board.world_from_plane;
   const double field_radius2 = DrawableFieldRadius2(camera);
-  auto image_of = [&](double i, double j, Eigen::Vector2d* pixel) {
-    const Eigen::Vector2d uv = board.origin + board.square * Eigen::Vector2d(i, j);
+  const auto on_plane = [&](double i, double j) -> Eigen::Vector2d {
+    return board.origin + board.square * Eigen::Vector2d(i, j);
+  };
+  auto image_of = [&](const Eigen::Vector2d& uv, Eigen::Vector2d* pixel) {
     const Eigen::Vector3d cam = cam_from_plane * Eigen::Vector3d(uv.x(), uv.y(), 0.0);
     if (cam.z() <= 1e-6) return false;
     if ((cam.head<2>() / cam.z()).squaredNorm() > field_radius2) return false;
@@ -86,21 +166,32 @@ BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d&
     return true;
   };
   const int steps = options.samples_per_square;
-  // Lines of constant i, then of constant j; a line is cut where it goes behind the camera
-  // or out of the lens's field.
+  // Lines of constant i, then of constant j, each within the outline (in squares along
+  // it) and sampled at every step inside; a line is cut where it goes behind the camera or
+  // out of the lens's field.
   for (int direction = 0; direction < 2; ++direction) {
     const int across = direction == 0 ? board.squares_x : board.squares_y;
     const int along = direction == 0 ? board.squares_y : board.squares_x;
     for (int a = 0; a <= across; ++a) {
+      const Eigen::Vector2d start = direction == 0 ? on_plane(a, 0) : on_plane(0, a);
+      const Eigen::Vector2d end = direction == 0 ? on_plane(a, along) : on_plane(along, a);
+      double first = 0.0, last = 1.0;
+      if (!board.outline.empty() && !ClipToConvex(start, end, board.outline, &first, &last)) {
+        continue;
+      }
+      std::vector<double> samples{first * along};
+      for (int k = static_cast<int>(std::floor(first * along * steps)) + 1;
+           k < last * along * steps; ++k) {
+        samples.push_back(double(k) / steps);
+      }
+      samples.push_back(last * along);
       std::vector<Eigen::Vector2d> line;
-      for (int k = 0; k <= along * steps; ++k) {
-        const double t = double(k) / steps;
+      for (const double t : samples) {
         Eigen::Vector2d pixel;
-        const bool seen = direction == 0 ? image_of(a, t, &pixel) : image_of(t, a, &pixel);
-        if (seen) {
+        if (image_of(start + (end - start) * (t / along), &pixel)) {
           line.push_back(pixel);
-        } else if (!line.empty()) {
-          projection.lines.push_back(std::move(line));
+        } else {
+          if (line.size() >= 2) projection.lines.push_back(std::move(line));
           line.clear();
         }
       }
@@ -110,10 +201,30 @@ BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d&
   for (int j = 0; j <= board.squares_y; ++j) {
     for (int i = 0; i <= board.squares_x; ++i) {
       Eigen::Vector2d pixel;
-      if (image_of(i, j, &pixel)) projection.corners.push_back(pixel);
+      if (image_of(on_plane(i, j), &pixel)) projection.corners.push_back(pixel);
     }
   }
   return projection;
+}
+
+std::optional<double> BoardTrackError(
+    const VirtualBoard& board, const Eigen::Isometry3d& cam_from_world,
+    const CameraIntrinsics& camera, const std::vector<std::pair<int, Eigen::Vector2d>>& seen,
+    int min_tracks) {
+  const Eigen::Isometry3d cam_from_plane = cam_from_world * board.world_from_plane;
+  std::vector<double> errors;
+  for (const auto& [track, uv] : board.tracked) {
+    const auto found = std::find_if(seen.begin(), seen.end(),
+                                    [track = track](const auto& s) { return s.first == track; });
+    if (found == seen.end()) continue;
+    const Eigen::Vector3d cam = cam_from_plane * Eigen::Vector3d(uv.x(), uv.y(), 0.0);
+    errors.push_back(cam.z() > 1e-6 ? (Project(camera, cam) - found->second).norm()
+                                    : std::numeric_limits<double>::infinity());
+  }
+  if (errors.empty() || static_cast<int>(errors.size()) < min_tracks) return std::nullopt;
+  const auto middle = errors.begin() + errors.size() / 2;
+  std::nth_element(errors.begin(), middle, errors.end());
+  return *middle;
 }
 
 }  // namespace autocal

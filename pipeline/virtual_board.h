@@ -5,7 +5,9 @@
 // calibration's observations are the plane's real tracks (box 9).
 #pragma once
 
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -19,6 +21,15 @@ struct VirtualBoardOptions {
   int squares_x = 8;           // Squares along the plane's first axis.
   int squares_y = 6;           // Squares along its second axis.
   int samples_per_square = 6;  // Points per square side on the drawn lines (they bend).
+  // Tracked points farther from the plane's median point than this times the median
+  // distance are not covered (box 10 places a few weakly seen ones far off).
+  double outlier_factor = 3.0;
+  // A board is drawn on a frame only where that frame confirms its pose: at least this many
+  // of the plane's tracks the board was attached over are seen in it...
+  int min_tracks_seen = 4;
+  // ...and the board's pose puts them, at the median, this close to where they are seen
+  // (a fraction of the image diagonal): a view box 10 posed wrongly draws no board.
+  double max_track_error = 0.01;
 
   bool Check(std::string* error) const;
 };
@@ -30,24 +41,45 @@ struct VirtualBoard {
   double square = 1.0;  // Side of a square, in plane units (metres once scale is known).
   int squares_x = 8;
   int squares_y = 6;
+  // The plane's tracked points the board was attached over: (track id, plane coordinates).
+  std::vector<std::pair<int, Eigen::Vector2d>> tracked;
+  // Their convex hull in plane coordinates: the board is drawn only inside it, where the
+  // plane was seen. Empty: the whole rectangle.
+  std::vector<Eigen::Vector2d> outline;
 
   // Corner (i, j), 0 <= i <= squares_x, 0 <= j <= squares_y, in the world.
   Eigen::Vector3d Corner(int i, int j) const;
 };
 
 // A board over the tracked area of a plane: its origin on the first tracked point, its
-// squares sized so the board covers the points' extent along the plane's axes.
+// squares as large as fit within the points' extent along both of the plane's axes, drawn
+// within their outline; outlying points (VirtualBoardOptions::outlier_factor) left out.
 VirtualBoard AttachBoard(int plane_id, const Eigen::Isometry3d& world_from_plane,
                          const std::vector<Eigen::Vector2d>& tracked_points,
                          const VirtualBoardOptions& options);
+// The same with the tracks' ids (VirtualBoard::tracked); above, they are numbered 0, 1, ...
+VirtualBoard AttachBoard(int plane_id, const Eigen::Isometry3d& world_from_plane,
+                         const std::vector<std::pair<int, Eigen::Vector2d>>& tracked,
+                         const VirtualBoardOptions& options);
 
-// The board seen through `camera` from `cam_from_world`: its grid lines as polylines
-// (bent by the lens), and its corners, in pixels. Parts behind the camera are left out.
+// The board seen through `camera` from `cam_from_world`: its grid lines inside its outline,
+// as polylines in pixels (bent by the lens), and every corner of its rectangle (j *
+// (squares_x + 1) + i), to measure against. Parts behind the camera or beyond the lens's
+// field are left out.
 struct BoardProjection {
   std::vector<std::vector<Eigen::Vector2d>> lines;
   std::vector<Eigen::Vector2d> corners;
 };
 BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d& cam_from_world,
                              const CameraIntrinsics& camera, const VirtualBoardOptions& options);
+
+// How far, in pixels, the board's pose puts its tracked points from where a frame sees them
+// (`seen`: track id and pixel, through `camera`): the median over the tracks the frame
+// shows; none when it shows fewer than `min_tracks`. A point behind the camera counts as
+// infinitely far.
+std::optional<double> BoardTrackError(
+    const VirtualBoard& board, const Eigen::Isometry3d& cam_from_world,
+    const CameraIntrinsics& camera, const std::vector<std::pair<int, Eigen::Vector2d>>& seen,
+    int min_tracks);
 
 }  // namespace autocal

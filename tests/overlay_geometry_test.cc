@@ -1,6 +1,8 @@
 #include "pipeline/overlay_geometry.h"
 
 #include <cmath>
+#include <limits>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -131,13 +133,34 @@ TEST(OverlayGeometry, GravityPointsDownAndTheHorizonIsPerpendicularToIt) {
   EXPECT_FALSE(MakeOverlayGeometry(frame, {}, {}, OverlaySpace::kRaw).gravity);
 }
 
-TEST(OverlayGeometry, BoardsAreProjectedThroughTheWorkingCalibration) {
-  const FrameSnapshot frame = Frame();
-  const VirtualBoardOptions options;
+// A board 2 m ahead over five tracked points, and a frame whose tracks of them are where
+// the board's pose puts them, plus `shift_px`.
+struct BoardFrame {
+  FrameSnapshot frame;
   PlacedBoard placed;
-  placed.board = AttachBoard(2, Eigen::Isometry3d::Identity(),
-                             {{-0.5, -0.4}, {0.5, 0.4}, {0.0, 0.0}}, options);
-  placed.cam_from_world.translation() = Eigen::Vector3d(0, 0, 2.0);
+};
+BoardFrame BoardSeen(double shift_px, int tracks_seen = 5) {
+  BoardFrame out{Frame(), {}};
+  const std::vector<std::pair<int, Eigen::Vector2d>> tracked = {
+      {21, {-0.5, -0.4}}, {22, {0.5, 0.4}}, {23, {0.0, 0.0}}, {24, {0.4, -0.3}}, {25, {-0.3, 0.3}}};
+  out.placed.board = AttachBoard(2, Eigen::Isometry3d::Identity(), tracked, {});
+  out.placed.cam_from_world.translation() = Eigen::Vector3d(0, 0, 2.0);
+  for (int k = 0; k < tracks_seen; ++k) {
+    const auto& [id, uv] = tracked[k];
+    const Eigen::Vector2d pixel =
+        Project(out.frame.working, out.placed.cam_from_world * Eigen::Vector3d(uv.x(), uv.y(), 0)) +
+        Eigen::Vector2d(shift_px, 0.0);
+    Track track;
+    track.id = id;
+    track.history = {{0, cv::Point2f(pixel.x(), pixel.y())}};
+    out.frame.motion.tracks.push_back(track);
+  }
+  return out;
+}
+
+TEST(OverlayGeometry, BoardsAreProjectedThroughTheWorkingCalibration) {
+  const auto [frame, placed] = BoardSeen(1.0);
+  const VirtualBoardOptions options;
   const OverlayGeometry overlay = MakeOverlayGeometry(frame, {placed}, options, OverlaySpace::kRaw);
   ASSERT_EQ(overlay.boards.size(), 1u);
   EXPECT_EQ(overlay.boards[0].plane_id, 2);
@@ -152,6 +175,26 @@ TEST(OverlayGeometry, BoardsAreProjectedThroughTheWorkingCalibration) {
   ASSERT_EQ(rectified.boards.size(), 1u);
   EXPECT_EQ(rectified.boards[0].lines,
             ProjectBoard(placed.board, placed.cam_from_world, pinhole, options).lines);
+}
+
+// A board is drawn only where the frame's own tracks confirm its pose: box 10 posed some
+// views of the office walk wrongly, and their boards were drawn across another wall.
+TEST(OverlayGeometry, BoardsAreDrawnOnlyWhereTheFramesTracksConfirmThem) {
+  const VirtualBoardOptions options;  // Within 1% of the diagonal (8 px at 640x480).
+  const auto drawn = [&](const BoardFrame& seen) {
+    return MakeOverlayGeometry(seen.frame, {seen.placed}, options, OverlaySpace::kRaw)
+        .boards.size();
+  };
+  EXPECT_EQ(drawn(BoardSeen(7.0)), 1u);
+  EXPECT_EQ(drawn(BoardSeen(9.0)), 0u) << "the pose puts the tracks 9 px off";
+  EXPECT_EQ(drawn(BoardSeen(0.0, options.min_tracks_seen - 1)), 0u) << "too few tracks seen";
+  EXPECT_EQ(drawn(BoardSeen(0.0, options.min_tracks_seen)), 1u);
+  BoardFrame behind = BoardSeen(0.0);
+  behind.placed.cam_from_world.translation().z() = -2.0;
+  EXPECT_EQ(drawn(behind), 0u) << "the board behind the camera";
+  ASSERT_EQ(BoardTrackError(behind.placed.board, behind.placed.cam_from_world,
+                            behind.frame.working, {{21, Eigen::Vector2d(320, 240)}}, 1),
+            std::numeric_limits<double>::infinity());
 }
 
 TEST(OverlayGeometry, ViewPoseIsBox10sAtViewsAndInterpolatedBetween) {

@@ -1,6 +1,9 @@
 #include "pipeline/virtual_board.h"
 
+#include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -58,6 +61,60 @@ TEST(VirtualBoard, ProjectionDrawsOnlyTrueImagesOfTheBoard) {
     }
   }
   EXPECT_GT(points, 100);
+}
+
+// Box 10 placed one of the office wall's tracks 400 times the patch's size away: the board
+// covers the patch, not the way to that point.
+TEST(VirtualBoard, AttachedOverThePatchNotOverAnOutlyingPoint) {
+  std::vector<std::pair<int, Eigen::Vector2d>> tracked;
+  for (int k = 0; k < 40; ++k) {
+    tracked.emplace_back(k, Eigen::Vector2d(0.1 * (k % 8), 0.12 * (k / 8)));  // 0.7 x 0.48.
+  }
+  tracked.emplace_back(99, Eigen::Vector2d(-420.0, 143.0));
+  const VirtualBoardOptions options;
+  const VirtualBoard board = AttachBoard(3, Eigen::Isometry3d::Identity(), tracked, options);
+  EXPECT_EQ(board.tracked.size(), 40u);
+  EXPECT_TRUE(std::none_of(board.tracked.begin(), board.tracked.end(),
+                           [](const auto& entry) { return entry.first == 99; }));
+  // Corner (0, 0) on the first point; the squares fit the patch on both axes (0.7 / 8 and
+  // 0.48 / 6 m: the smaller).
+  EXPECT_TRUE(board.origin.isApprox(Eigen::Vector2d(0.0, 0.0)));
+  EXPECT_NEAR(board.square, 0.08, 1e-9);
+  for (const Eigen::Vector2d& corner : board.outline) {
+    EXPECT_GE(corner.minCoeff(), -1e-6);
+    EXPECT_LE(corner.x(), 0.7 + 1e-6);
+    EXPECT_LE(corner.y(), 0.48 + 1e-6);
+  }
+  EXPECT_EQ(board.outline.size(), 4u) << "the patch's corners";
+}
+
+// Only the part of the board inside its outline (where the plane's tracks were) is drawn:
+// every drawn pixel's ray meets the plane inside the outline.
+TEST(VirtualBoard, ProjectionStaysInsideTheOutline) {
+  const CameraIntrinsics camera = test::SonnarLikeCamera();
+  VirtualBoard board;
+  board.world_from_plane.translation() = Eigen::Vector3d(-1.0, -0.8, 3.0);
+  board.square = 0.25;
+  board.outline = {{0.0, 0.0}, {2.0, 0.0}, {0.0, 1.5}};  // The rectangle's lower-left half.
+  const Eigen::Isometry3d cam_from_world = Eigen::Isometry3d::Identity();
+  const BoardProjection projection = ProjectBoard(board, cam_from_world, camera, {});
+  int points = 0;
+  for (const auto& line : projection.lines) {
+    for (const Eigen::Vector2d& pixel : line) {
+      const auto ray = Unproject(camera, pixel);
+      ASSERT_TRUE(ray);
+      const double depth = 3.0;  // The plane z = 3 in the camera.
+      const Eigen::Vector2d uv = depth * *ray - Eigen::Vector2d(-1.0, -0.8);
+      EXPECT_GE(uv.x(), -1e-4);
+      EXPECT_GE(uv.y(), -1e-4);
+      EXPECT_LE(uv.x() / 2.0 + uv.y() / 1.5, 1.0 + 1e-4) << "beyond the outline's diagonal";
+      ++points;
+    }
+  }
+  // Each of the 9 + 7 grid lines crosses the triangle, but the corner (2, 1.5) and its two
+  // edges do not.
+  EXPECT_EQ(projection.lines.size(), 14u);
+  EXPECT_GT(points, 60);
 }
 
 }  // namespace

@@ -292,26 +292,12 @@ void PipelineController::endLive() {
   live_boards_attempt_.reset();
 }
 
-std::vector<PlacedBoard> PipelineController::BoardsOf(const AttemptOutcome& attempt,
-                                                      int64_t t_ns) {
-  std::vector<PlacedBoard> placed;
-  if (const std::optional<Eigen::Isometry3d> pose = ViewPoseAt(attempt, t_ns)) {
-    for (const VirtualBoard& board : attempt.boards) placed.push_back({board, *pose});
-  }
-  return placed;
-}
-
 std::vector<PlacedBoard> PipelineController::boardsAt(int64_t t_ns) const {
   if (current_.live) {
-    return live_boards_attempt_ ? BoardsOf(*live_boards_attempt_, t_ns)
+    return live_boards_attempt_ ? PlaceBoards(*live_boards_attempt_, t_ns)
                                 : std::vector<PlacedBoard>();
   }
-  for (auto attempt = attempts_.rbegin(); attempt != attempts_.rend(); ++attempt) {
-    if ((*attempt)->boards.empty()) continue;
-    std::vector<PlacedBoard> placed = BoardsOf(**attempt, t_ns);
-    if (!placed.empty()) return placed;
-  }
-  return {};
+  return PlaceNewestBoards(attempts_, t_ns);
 }
 
 void PipelineController::updateCurrent() {

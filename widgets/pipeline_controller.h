@@ -138,7 +138,6 @@ class PipelineController : public QObject {
   void updateCurrent();
   // The boards of the newest attempt whose views reach frame time `t_ns`.
   std::vector<PlacedBoard> boardsAt(int64_t t_ns) const;
-  static std::vector<PlacedBoard> BoardsOf(const AttemptOutcome& attempt, int64_t t_ns);
   void requestRectified();
   void onRectified();
 
