@@ -176,6 +176,9 @@ FrameSnapshot MotionHalf::Process(LensFrame frame, std::optional<CalibrationJob>
     }
     next.prior = snapshot.working;
     next.view_times = material_.view_times();
+    if (last_solved_) {
+      next.material.start = StartFrom(last_solved_->second, last_solved_->first, next.view_times);
+    }
     *job = std::move(next);
     job_pending_ = true;
     last_attempt_ns_ = frame.t_ns;
@@ -188,6 +191,7 @@ FrameSnapshot MotionHalf::Process(LensFrame frame, std::optional<CalibrationJob>
 std::shared_ptr<const AttemptOutcome> MotionHalf::Judge(const CalibrationJob& job,
                                                         const SelfCalibrationResult& result) {
   job_pending_ = false;
+  if (result.usable) last_solved_.emplace(job.view_times, result);
   history_.Judge(job.t_ns, result);
   auto outcome = std::make_shared<AttemptOutcome>();
   outcome->record = history_.attempts().back();

@@ -181,6 +181,8 @@ class MotionHalf {
   std::string last_degraded_;  // Why the newest unfit frame was.
   bool job_pending_ = false;
   int64_t frames_ = 0;
+  // The newest usable attempt and its views' times: where the next solve starts.
+  std::optional<std::pair<std::vector<int64_t>, SelfCalibrationResult>> last_solved_;
 };
 
 // Boxes 1-10 on one thread: the two halves in turn, the lens half always seeing the

@@ -479,6 +479,9 @@ std::vector<OptionField> MakeFields() {
                     &C::max_focal_sigma),
       Field<int>("calibration.max_iterations", 1, 10000, "Levenberg-Marquardt iterations",
                  &P::calibration, &C::max_iterations),
+      Field<bool>("calibration.warm_start", 0, 1,
+                  "start from the previous attempt's solution on the views it shares",
+                  &P::calibration, &C::warm_start),
       // The history.
       Field<double>("acceptance.max_rms_px", 0.001, 100,
                     "attempts with a larger reprojection RMS are rejected (px)", &P::acceptance,

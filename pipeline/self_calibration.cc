@@ -243,6 +243,53 @@ void PlaceByPnp(const std::vector<Tracks>& planes, Structure* s) {
   }
 }
 
+// The earlier solution carried into this window's world (the reference camera's): poses
+// of the views it placed, and the points of its planes that are tracked here. False when it
+// did not place the reference view.
+bool StructureFromStart(const CalibrationStart& start, const std::vector<const PlaneTrack*>& used,
+                        const std::vector<Tracks>& planes, int reference, Structure* s) {
+  if (int(start.cam_from_world.size()) != int(s->cam_from_world.size()) ||
+      !start.cam_from_world[reference]) {
+    return false;
+  }
+  const Eigen::Isometry3d world_from_old = *start.cam_from_world[reference];
+  const Eigen::Isometry3d old_from_world = world_from_old.inverse();
+  for (size_t frame = 0; frame < start.cam_from_world.size(); ++frame) {
+    if (start.cam_from_world[frame])
+      s->cam_from_world[frame] = *start.cam_from_world[frame] * old_from_world;
+  }
+  s->cam_from_world[reference] = Eigen::Isometry3d::Identity();
+  for (size_t p = 0; p < planes.size(); ++p) {
+    const auto old = std::find_if(start.planes.begin(), start.planes.end(),
+                                  [&](const PlaneEstimate& e) { return e.id == used[p]->id; });
+    if (old == start.planes.end() || old->points.size() < 3) continue;
+    const Eigen::Isometry3d world_from_plane = world_from_old * old->world_from_plane;
+    for (const auto& [id, uv] : old->points) {
+      if (planes[p].count(id)) {
+        s->points[p][id] = world_from_plane * Eigen::Vector3d(uv.x(), uv.y(), 0);
+      }
+    }
+    // Its tracks new to this window: where the ray of the first placed view that sees
+    // them meets the plane (as the anchor's are placed without a start).
+    const Eigen::Vector3d normal = world_from_plane.rotation().col(2);
+    const Eigen::Vector3d origin = world_from_plane.translation();
+    for (const auto& [id, seen] : planes[p]) {
+      if (s->points[p].count(id)) continue;
+      for (const auto& [frame, x] : seen) {
+        if (!s->cam_from_world[frame]) continue;
+        const Eigen::Isometry3d world_from_cam = s->cam_from_world[frame]->inverse();
+        const Eigen::Vector3d ray = world_from_cam.rotation() * Eigen::Vector3d(x.x(), x.y(), 1);
+        const double depth = normal.dot(origin - world_from_cam.translation()) / normal.dot(ray);
+        if (std::isfinite(depth) && depth > 0) {
+          s->points[p][id] = world_from_cam.translation() + depth * ray;
+        }
+        break;
+      }
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
@@ -250,6 +297,23 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
                                     const SelfCalibrationOptions& options) {
   SelfCalibrationResult result;
   result.estimate = prior;
+  // Which intrinsics are free.
+  std::vector<int> fixed;
+  if (!options.estimate_principal_point) fixed.insert(fixed.end(), {kCx, kCy});
+  if (!options.estimate_distortion) fixed.insert(fixed.end(), {kK1, kK2});
+  if (!options.estimate_tangential) fixed.insert(fixed.end(), {kP1, kP2});
+  if (!options.estimate_k3) fixed.push_back(kK3);
+  const bool warm = options.warm_start && material.start.has_value();
+  // Where the free intrinsics start; the prior stays the prior, and holds the fixed ones.
+  CameraIntrinsics start = prior;
+  if (warm) {
+    std::array<double, kNumIntrinsics> packed = prior.Packed();
+    const std::array<double, kNumIntrinsics> solved = material.start->intrinsics.Packed();
+    for (int i = 0; i < kNumIntrinsics; ++i) {
+      if (std::find(fixed.begin(), fixed.end(), i) == fixed.end()) packed[i] = solved[i];
+    }
+    start = CameraIntrinsics::FromPacked(packed, prior.width, prior.height);
+  }
   auto no_update = [&](const std::string& why) {
     result.reason = "no update: " + why;
     return result;
@@ -264,7 +328,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     Tracks t;
     for (const PlaneObservation& o : plane.observations) {
       if (o.frame < 0 || o.frame >= material.frame_count) continue;
-      if (const auto ray = Unproject(prior, o.pixel)) t[o.point][o.frame] = *ray;
+      if (const auto ray = Unproject(start, o.pixel)) t[o.point][o.frame] = *ray;
     }
     if (int(t.size()) < options.min_points_per_plane) continue;
     used.push_back(&plane);
@@ -297,16 +361,30 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
         return a.second < b.second;
       })->first;
 
-  Structure structure;
-  structure.cam_from_world.resize(material.frame_count);
-  structure.cam_from_world[reference] = Eigen::Isometry3d::Identity();
-  structure.points.resize(tracks.size());
-  PoseFromAnchor(tracks[0], reference, material.frame_count, &structure);
-  for (int round = 0; round < 3; ++round) {
-    Triangulate(tracks, &structure);
-    PlaceByPnp(tracks, &structure);
+  // The initial structure: the earlier solution where there is one (fewer iterations, as
+  // windows overlap), else the anchor's homographies; then views placed by PnP and points
+  // triangulated, as far as they reach.
+  auto build = [&](bool from_start) {
+    Structure built;
+    built.cam_from_world.resize(material.frame_count);
+    built.cam_from_world[reference] = Eigen::Isometry3d::Identity();
+    built.points.resize(tracks.size());
+    if (!from_start || !StructureFromStart(*material.start, used, tracks, reference, &built)) {
+      PoseFromAnchor(tracks[0], reference, material.frame_count, &built);
+    }
+    for (int round = 0; round < 3; ++round) {
+      Triangulate(tracks, &built);
+      PlaceByPnp(tracks, &built);
+    }
+    Triangulate(tracks, &built);
+    return built;
+  };
+  Structure structure = build(warm);
+  if (warm &&
+      std::count_if(structure.cam_from_world.begin(), structure.cam_from_world.end(),
+                    [](const auto& pose) { return pose.has_value(); }) < options.min_frames) {
+    structure = build(false);
   }
-  Triangulate(tracks, &structure);
 
   std::vector<int> posed;
   for (int f = 0; f < material.frame_count; ++f) {
@@ -335,7 +413,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   // its points as (u, v) in that frame.
   ceres::Problem problem;
   auto* ordering = new ceres::ParameterBlockOrdering;
-  std::array<double, kNumIntrinsics> intrinsics = prior.Packed();
+  std::array<double, kNumIntrinsics> intrinsics = start.Packed();
   std::vector<Pose> frame_poses(material.frame_count);
   for (int f : posed) frame_poses[f] = FromIsometry(*structure.cam_from_world[f]);
   std::vector<Pose> plane_poses(tracks.size());
@@ -391,6 +469,14 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
                                              plane_poses[r.plane].data(),
                                              plane_points[r.plane][r.point].data(), e);
   });
+  // The reference view holds the world still; a start that leaves it without a point it
+  // sees (its anchor plane new to this window) is of no use.
+  if (warm && std::none_of(residuals.begin(), residuals.end(),
+                           [&](const Residual& r) { return r.frame == reference; })) {
+    SelfCalibrationOptions cold = options;
+    cold.warm_start = false;
+    return SelfCalibrate(material, prior, cold);
+  }
   result.observations_used = int(residuals.size());
   if (residuals.empty()) return no_update("no plane point seen from two placed frames");
 
@@ -446,7 +532,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   }
 
   // Straight lines (box 2) and gravity at rest (box 7).
-  AddPlumbLineResiduals(lines, prior, options.loss_px, intrinsics_block, &problem, ordering,
+  AddPlumbLineResiduals(lines, start, options.loss_px, intrinsics_block, &problem, ordering,
                         &arena);
   result.lines_used = int(lines.size());
   double* down_world = nullptr;
@@ -468,12 +554,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     ordering->AddElementToGroup(down_world, 1);
   }
 
-  // Which intrinsics are free, and the weak prior on them.
-  std::vector<int> fixed;
-  if (!options.estimate_principal_point) fixed.insert(fixed.end(), {kCx, kCy});
-  if (!options.estimate_distortion) fixed.insert(fixed.end(), {kK1, kK2});
-  if (!options.estimate_tangential) fixed.insert(fixed.end(), {kP1, kP2});
-  if (!options.estimate_k3) fixed.push_back(kK3);
+  // The weak prior on the free intrinsics.
   std::array<double, kNumIntrinsics> weight{};
   weight[kFx] = 1.0 / (options.prior_focal_fraction * prior.fx);
   weight[kFy] = 1.0 / (options.prior_focal_fraction * prior.fy);
@@ -506,6 +587,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   ceres::Solver::Summary summary;
   ceres::Solve(solver_options, &problem, &summary);
   if (!summary.IsSolutionUsable()) return no_update("the solver failed: " + summary.BriefReport());
+  result.iterations = int(summary.iterations.size()) - 1;
   std::copy_n(intrinsics_block, kNumIntrinsics, intrinsics.begin());
   for (int f : posed) std::copy_n(frame_blocks[f], 6, frame_poses[f].begin());
   for (size_t p = 0; p < tracks.size(); ++p) {
@@ -569,10 +651,27 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
          << result.rms_px << " px over " << result.observations_used << " observations of "
          << result.points_used << " points on " << result.planes_used << " planes in "
          << result.frames_used << " frames, " << result.lines_used << " lines, rotation spread "
-         << result.rotation_spread_deg << " deg; " << summary.iterations.size() - 1
-         << " iterations";
+         << result.rotation_spread_deg << " deg; " << result.iterations << " iterations";
   result.reason = report.str();
   return result;
+}
+
+CalibrationStart StartFrom(const SelfCalibrationResult& solved,
+                           const std::vector<int64_t>& solved_views,
+                           const std::vector<int64_t>& views) {
+  CalibrationStart start;
+  start.intrinsics = solved.estimate;
+  start.planes = solved.planes;
+  start.cam_from_world.resize(views.size());
+  for (size_t frame = 0; frame < views.size(); ++frame) {
+    const auto same = std::lower_bound(solved_views.begin(), solved_views.end(), views[frame]);
+    if (same == solved_views.end() || *same != views[frame]) continue;
+    const size_t solved_frame = size_t(same - solved_views.begin());
+    if (solved_frame < solved.cam_from_world.size()) {
+      start.cam_from_world[frame] = solved.cam_from_world[solved_frame];
+    }
+  }
+  return start;
 }
 
 void QuietSolverWarnings() { FLAGS_minloglevel = google::GLOG_ERROR; }

@@ -40,6 +40,22 @@ struct GravityObservation {
   double sigma_deg = 0.5;
 };
 
+// A plane as the calibration placed it: its frame in the window's world (x, y in the plane,
+// z its normal), and its tracked points' coordinates in that frame.
+struct PlaneEstimate {
+  int id = 0;
+  Eigen::Isometry3d world_from_plane = Eigen::Isometry3d::Identity();
+  std::vector<std::pair<int, Eigen::Vector2d>> points;  // (track id, (u, v)).
+};
+
+// A solution to start from: an earlier attempt's, on views this window shares with it.
+struct CalibrationStart {
+  CameraIntrinsics intrinsics;
+  // Per frame of the material: the earlier attempt's pose of that view, in its world.
+  std::vector<std::optional<Eigen::Isometry3d>> cam_from_world;
+  std::vector<PlaneEstimate> planes;  // In the same world.
+};
+
 // Everything one calibration attempt draws on, over a window of frames.
 struct CalibrationMaterial {
   // Why images in the window were unfit to measure from (box 9's quality gate); when set,
@@ -49,6 +65,9 @@ struct CalibrationMaterial {
   std::vector<PlaneTrack> planes;
   std::vector<LineObservation> lines;  // Snake shapes: straight world lines.
   std::vector<GravityObservation> gravity;
+  // Windows overlap: the previous attempt's solution, when there is one, is where the solve
+  // starts (SelfCalibrationOptions::warm_start).
+  std::optional<CalibrationStart> start;
 };
 
 struct SelfCalibrationOptions {
@@ -65,16 +84,9 @@ struct SelfCalibrationOptions {
   double min_rotation_deg = 8.0;         // Views must differ by this much in orientation.
   double max_focal_sigma = 0.01;         // No update when sigma(fx) / fx exceeds this.
   int max_iterations = 100;              // Levenberg-Marquardt iterations.
+  bool warm_start = true;                // Start from CalibrationMaterial::start if set.
 
   bool Check(std::string* error) const;
-};
-
-// A plane as the calibration placed it: its frame in the window's world (x, y in the plane,
-// z its normal), and its tracked points' coordinates in that frame.
-struct PlaneEstimate {
-  int id = 0;
-  Eigen::Isometry3d world_from_plane = Eigen::Isometry3d::Identity();
-  std::vector<std::pair<int, Eigen::Vector2d>> points;  // (track id, (u, v)).
 };
 
 struct SelfCalibrationResult {
@@ -91,6 +103,7 @@ struct SelfCalibrationResult {
   int points_used = 0;
   int observations_used = 0;
   int lines_used = 0;
+  int iterations = 0;  // Levenberg-Marquardt iterations the solve took.
   // Per frame: the camera pose in the window's world (the reference camera), scale set by
   // the first plane's first point at depth 1; empty for frames left out.
   std::vector<std::optional<Eigen::Isometry3d>> cam_from_world;
@@ -100,6 +113,12 @@ struct SelfCalibrationResult {
 SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
                                     const CameraIntrinsics& prior,
                                     const SelfCalibrationOptions& options);
+
+// The start `solved` (on views taken at `solved_views`) gives an attempt on views taken at
+// `views`: the intrinsics, the planes and the poses of the views both have.
+CalibrationStart StartFrom(const SelfCalibrationResult& solved,
+                           const std::vector<int64_t>& solved_views,
+                           const std::vector<int64_t>& views);
 
 // Ceres logs each trial step its linear solver refuses ("Linear solver failure ... Matrix
 // not positive definite") as a warning on stderr, though the solve goes on and its outcome

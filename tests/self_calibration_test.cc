@@ -191,6 +191,74 @@ TEST(SelfCalibration, PlaneTracksAloneFixTheIntrinsics) {
   EXPECT_NEAR(result.estimate.k1, test::SonnarLikeCamera().k1, 0.01);
 }
 
+// Windows overlap: an attempt that starts from the previous one's solution on the views
+// both hold ends where a start from the homographies does, in fewer iterations.
+TEST(SelfCalibration, WarmStartFromAnOverlappingWindowEndsWhereAColdStartDoes) {
+  cv::RNG rng(11);
+  const Room room = MakeRoom(rng);
+  const CameraIntrinsics truth = test::SonnarLikeCamera();
+  const int frames = 40, shift = 12;
+  const CalibrationMaterial first = Observe(room, Walk(LookingAbout, frames), truth, 0.5, rng);
+  const auto later = [&](double f) { return LookingAbout(f + shift); };
+  CalibrationMaterial second = Observe(room, Walk(later, frames), truth, 0.5, rng);
+  const SelfCalibrationResult solved = SelfCalibrate(first, WrongStart(), {});
+  ASSERT_TRUE(solved.usable) << solved.reason;
+
+  std::vector<int64_t> first_views, second_views;
+  for (int f = 0; f < frames; ++f) {
+    first_views.push_back(f);
+    second_views.push_back(f + shift);
+  }
+  const CalibrationStart start = StartFrom(solved, first_views, second_views);
+  ASSERT_EQ(start.cam_from_world.size(), size_t(frames));
+  for (int f = 0; f < frames; ++f) {
+    // View f of the second window is view f + shift of the first, if the first had it.
+    EXPECT_EQ(start.cam_from_world[f].has_value(), f + shift < frames) << "view " << f;
+    if (f + shift < frames && solved.cam_from_world[f + shift]) {
+      EXPECT_TRUE(start.cam_from_world[f]->isApprox(*solved.cam_from_world[f + shift]));
+    }
+  }
+  EXPECT_EQ(start.intrinsics.fx, solved.estimate.fx);
+
+  const SelfCalibrationResult cold = SelfCalibrate(second, WrongStart(), {});
+  second.start = start;
+  const SelfCalibrationResult warm = SelfCalibrate(second, WrongStart(), {});
+  SelfCalibrationOptions no_warm_start;
+  no_warm_start.warm_start = false;
+  const SelfCalibrationResult ignored = SelfCalibrate(second, WrongStart(), no_warm_start);
+  std::printf("cold: %s\nwarm: %s\n", cold.reason.c_str(), warm.reason.c_str());
+  ASSERT_TRUE(cold.usable) << cold.reason;
+  ASSERT_TRUE(warm.usable) << warm.reason;
+  EXPECT_NEAR(warm.estimate.fx / truth.fx, 1.0, 0.005);
+  EXPECT_NEAR(warm.estimate.fx / cold.estimate.fx, 1.0, 2e-4) << "the same minimum";
+  EXPECT_NEAR(warm.estimate.cx, cold.estimate.cx, 0.1);
+  EXPECT_NEAR(warm.estimate.k1, cold.estimate.k1, 1e-3);
+  // The homographies leave out views and points the start places (and place one view of
+  // this walk upside down, a 180 deg rotation spread).
+  EXPECT_GE(warm.observations_used, cold.observations_used);
+  EXPECT_LT(warm.iterations, cold.iterations);
+  EXPECT_EQ(ignored.estimate.fx, cold.estimate.fx) << "warm_start off: the start is ignored";
+  EXPECT_EQ(ignored.iterations, cold.iterations);
+}
+
+// A start that did not place the window's reference view is of no use: the solve starts
+// from the homographies, as without one.
+TEST(SelfCalibration, StartWithoutTheReferenceViewFallsBackToTheHomographies) {
+  cv::RNG rng(12);
+  const Room room = MakeRoom(rng);
+  CalibrationMaterial material =
+      Observe(room, Walk(LookingAbout, 40), test::SonnarLikeCamera(), 0.5, rng);
+  const SelfCalibrationResult cold = SelfCalibrate(material, WrongStart(), {});
+  ASSERT_TRUE(cold.usable) << cold.reason;
+  CalibrationStart start;
+  start.intrinsics = WrongStart();
+  start.cam_from_world.resize(material.frame_count);  // No view placed.
+  material.start = start;
+  const SelfCalibrationResult result = SelfCalibrate(material, WrongStart(), {});
+  EXPECT_EQ(result.estimate.fx, cold.estimate.fx);
+  EXPECT_EQ(result.iterations, cold.iterations);
+}
+
 // Box 8: a virtual board attached to a plane sticks to the plane's real texture when drawn
 // with the estimated calibration, and slides off it with the wrong one it started from.
 TEST(SelfCalibration, VirtualBoardSticksWithTheEstimateAndSlidesWithoutIt) {
