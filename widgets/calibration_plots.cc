@@ -37,7 +37,9 @@ constexpr int kMarkerSize = 8;
 // A drag shorter than this (pixels) is a click: it seeks instead of panning.
 constexpr int kDragThreshold = 4;
 constexpr double kMinSpanSeconds = 0.05;
-constexpr int kMinChartHeight = 110;
+// Tall enough for the value axis's title and three labels (110 left one label and cut
+// "rms (px)" short in the workbench's dock); the plots scroll below this.
+constexpr int kMinChartHeight = 150;
 // The no-update row: its marks' size, and their height above the chart's foot as a
 // fraction of the value range shown.
 constexpr int kNoUpdateMarkerSize = 7;
@@ -803,9 +805,16 @@ void CalibrationPlots::redraw() {
       lo -= pad;
       hi += pad;
     }
-    // Labels about 35 px apart: Qt Charts elides them all when they crowd.
-    const int ticks = std::clamp(static_cast<int>(chart.chart()->plotArea().height()) / 35, 2, 5);
-    const double value_tick = NiceTickInterval(hi - lo, ticks);
+    // Labels about 30 px apart (Qt Charts elides them all when they crowd), and at least
+    // three asked for, so that two or more fall inside the range.
+    const int ticks = std::clamp(static_cast<int>(chart.chart()->plotArea().height()) / 30, 3, 5);
+    double value_tick = NiceTickInterval(hi - lo, ticks);
+    const auto labelled = [&](double tick) {
+      return std::floor(hi / tick) - std::ceil(lo / tick) + 1.0;
+    };
+    for (int more = ticks + 1; labelled(value_tick) < 2.0 && more <= 4 * ticks; ++more) {
+      value_tick = NiceTickInterval(hi - lo, more);
+    }
     chart.valueAxis()->setTickAnchor(std::floor(lo / value_tick) * value_tick);
     SetAxis(chart.valueAxis(), lo, hi, value_tick);
 

@@ -167,8 +167,19 @@ void MainWindow::createActions() {
   end_action_ = play->addAction(style()->standardIcon(QStyle::SP_MediaSkipForward),
                                 tr("Go to &End"), playback_, &PlaybackController::seekToEnd);
   end_action_->setShortcut(Qt::Key_End);
-  for (QAction* action :
-       {play_action_, step_back_action_, step_forward_action_, start_action_, end_action_}) {
+  play->addSeparator();
+  follow_action_ = play->addAction(tr("F&ollow the Pipeline"));
+  follow_action_->setCheckable(true);
+  follow_action_->setShortcut(QKeySequence(QStringLiteral("Ctrl+Shift+F")));
+  // Playing at the recording's pace and following the pipeline exclude each other.
+  connect(follow_action_, &QAction::toggled, this, [this](bool on) {
+    if (on) playback_->pause();
+  });
+  connect(playback_, &PlaybackController::playingChanged, this, [this](bool playing) {
+    if (playing) follow_action_->setChecked(false);
+  });
+  for (QAction* action : {play_action_, step_back_action_, step_forward_action_, start_action_,
+                          end_action_, follow_action_}) {
     action->setToolTip(QStringLiteral("%1 (%2)").arg(action->text().remove(QLatin1Char('&')),
                                                      action->shortcut().toString()));
   }
@@ -317,6 +328,21 @@ void MainWindow::createOverlayControls() {
     toolbar->addAction(action);
   }
   if (!view_mode_group_->checkedAction()) view_mode_group_->actions().front()->setChecked(true);
+  // What the pipeline found in the frame on screen, beside the layers that draw it; a fixed
+  // size, so that its text changing every frame does not lay the window out again.
+  auto* spacer = new QWidget;
+  spacer->setSizePolicy(QSizePolicy::Expanding, QSizePolicy::Preferred);
+  toolbar->addWidget(spacer);
+  status_found_ = new QLabel;
+  status_found_->setObjectName(QStringLiteral("status_found"));
+  status_found_->setToolTip(tr("What the pipeline found in the frame on screen"));
+  FixSize(status_found_, tr("%1 lines, %2 snakes, %3 tracks, %4 planes, %5 boards")
+                             .arg(999)
+                             .arg(999)
+                             .arg(9999)
+                             .arg(99)
+                             .arg(99));
+  toolbar->addWidget(status_found_);
   connect(view_mode_group_, &QActionGroup::triggered, this, &MainWindow::onViewModeChosen);
   view_menu_->addAction(toolbar->toggleViewAction());
 
@@ -454,8 +480,6 @@ void MainWindow::createStatusBar() {
   status_resolution_ = new QLabel;
   status_fps_ = new QLabel;
   status_position_ = new QLabel;
-  status_found_ = new QLabel;
-  status_found_->setToolTip(tr("What the pipeline found in the frame on screen"));
   status_pipeline_ = new QLabel;
   status_pipeline_->setObjectName(QStringLiteral("status_pipeline"));
   status_pipeline_->setToolTip(
@@ -464,19 +488,16 @@ void MainWindow::createStatusBar() {
   status_display_->setObjectName(QStringLiteral("status_display"));
   status_display_->setToolTip(tr("Frames the video view put on screen in the last second"));
   FixSize(status_position_, QStringLiteral("frame 000000 of 000000  00000.000 s"));
-  FixSize(status_found_, tr("%1 lines, %2 snakes, %3 tracks, %4 planes, %5 boards")
-                             .arg(999)
-                             .arg(999)
-                             .arg(9999)
-                             .arg(99)
-                             .arg(99));
   FixSize(status_pipeline_, tr("pipeline done %1 / %2 frames, %3 fps")
-                                .arg(999999)
-                                .arg(999999)
+                                .arg(99999)
+                                .arg(99999)
                                 .arg(QStringLiteral("999.9")));
   FixSize(status_display_, tr("display %1 fps").arg(QStringLiteral("999.9")));
+  // The source has the room the rest leaves (what was found is above the video, with the
+  // layers), and its whole text as a tooltip.
+  status_source_->setObjectName(QStringLiteral("status_source"));
+  status_source_->setMinimumWidth(0);
   statusBar()->addWidget(status_source_, 1);
-  statusBar()->addPermanentWidget(status_found_);
   statusBar()->addPermanentWidget(status_pipeline_);
   statusBar()->addPermanentWidget(status_display_);
   statusBar()->addPermanentWidget(status_resolution_);
@@ -519,6 +540,13 @@ void MainWindow::connectControllers() {
   connect(pipeline_, &PipelineController::overlaysChanged, this, &MainWindow::onOverlaysChanged);
   connect(pipeline_, &PipelineController::rectifiedReady, video_, &VideoView::setRectifiedImage);
   connect(pipeline_, &PipelineController::snapshotReady, this, &MainWindow::snapshotReady);
+  // Following: each finished frame is asked for; the loader decodes only the newest asked.
+  connect(pipeline_, &PipelineController::snapshotReady, this,
+          [this](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+            if (follow_action_->isChecked() && !live_) {
+              playback_->seekToIndex(static_cast<int>(snapshot->index));
+            }
+          });
   connect(pipeline_, &PipelineController::started, this, [this](int frames) {
     run_frames_painted_ = 0;
     run_seconds_played_ = 0.0;
@@ -539,7 +567,7 @@ void MainWindow::connectControllers() {
     QString display;
     if (run_seconds_played_ > 1.0) {
       display = tr("; the video view showed %1 frames per second while it ran and playback "
-                   "played")
+                   "played or followed it")
                     .arg(static_cast<double>(run_frames_painted_) / run_seconds_played_, 0, 'f', 1);
     }
     log(tr("Pipeline done: %1 frames in %2 s (%3 fps)%4")
@@ -622,6 +650,7 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
   const QString description = QString::fromStdString(seq.Describe());
   setWindowTitle(tr("%1 \u2014 autocal workbench").arg(description));
   status_source_->setText(description);
+  status_source_->setToolTip(description);
   status_resolution_->setText(
       tr("%1 \u00d7 %2 px").arg(seq.session().width).arg(seq.session().height));
   status_fps_->setText(tr("%1 fps").arg(fps, 0, 'f', 2));
@@ -821,7 +850,9 @@ void MainWindow::onRateTick() {
   const uint64_t painted = video_->framesPainted();
   const uint64_t frames = painted - frames_painted_at_tick_;
   frames_painted_at_tick_ = painted;
-  if ((!playback_->isPlaying() && !live_) || seconds <= 0.0) {
+  const bool moving = playback_->isPlaying() || live_ ||
+                     (follow_action_->isChecked() && pipeline_->isRunning());
+  if (!moving || seconds <= 0.0) {
     display_fps_ = 0.0;
     status_display_->clear();
     return;

@@ -71,8 +71,11 @@ class MainWindow : public QMainWindow {
   // The action that switches an overlay layer, and the one that picks a view mode.
   QAction* overlayAction(OverlayLayer layer) const;
   QAction* viewModeAction(VideoView::ViewMode mode) const;
-  // Frames put on screen per second by the video view, over the last second while playing
-  // or showing a live source (0 when paused).
+  // Playback › Follow the Pipeline: while checked, the video view shows each frame as the
+  // pipeline finishes it (the newest one when the window is slower), with its overlays.
+  QAction* followPipelineAction() const { return follow_action_; }
+  // Frames put on screen per second by the video view, over the last second while playing,
+  // following the pipeline or showing a live source (0 when paused).
   double displayFps() const { return display_fps_; }
 
  public slots:
@@ -189,6 +192,7 @@ class MainWindow : public QMainWindow {
   QAction* step_forward_action_ = nullptr;
   QAction* start_action_ = nullptr;
   QAction* end_action_ = nullptr;
+  QAction* follow_action_ = nullptr;
   std::vector<std::pair<OverlayLayer, QAction*>> layer_actions_;
 };
 

@@ -14,15 +14,18 @@
 #include <QComboBox>
 #include <QElapsedTimer>
 #include <QFile>
+#include <QGraphicsTextItem>
 #include <QImage>
 #include <QLineEdit>
 #include <QSettings>
 #include <QSignalSpy>
 #include <QSvgRenderer>
+#include <QTabWidget>
 #include <QTableView>
 #include <QTemporaryDir>
 #include <QToolTip>
 #include <QWheelEvent>
+#include <QGraphicsTextItem>
 #include <QtTest>
 
 #include "pipeline/calibration_export.h"
@@ -187,6 +190,7 @@ class CalibrationPlotsTest : public QObject {
   void followsAHistoryBeingWritten();
   void drawsAttemptsThatComeWithinTheTimeRange();
   void staysFastWithHoursOfHistory();
+  void valueLabelsAreWhole();
 
  private:
   // Plots showing the test history, shown and laid out.
@@ -803,6 +807,100 @@ void CalibrationPlotsTest::staysFastWithHoursOfHistory() {
   double highest = 0.0;
   for (const AttemptRecord& r : series->stored.attempts) highest = std::max(highest, r.estimate.fx);
   QVERIFY(fx.valueAxis()->max() >= highest);
+}
+
+// The value axes' labels, read from the chart's scene: every one whole (Qt Charts elides a
+// label its layout has no room for, "20..."), and at least two per chart. The history is
+// one like a short simulated run's: fy and cy nearly flat (ticks 0.01 apart), the distortion
+// small, p1, p2, k3 held at 0; shown at the Calibration dock's size in a new window.
+void CalibrationPlotsTest::valueLabelsAreWhole() {
+  CameraIntrinsics premission = Premission();
+  premission.width = 320;
+  premission.height = 240;
+  premission.fx = 207.6;
+  premission.fy = 208.02;
+  premission.cx = 161.6;
+  premission.cy = 112.03;
+  premission.k1 = -0.0123;
+  premission.k2 = 0.0005;
+  CalibrationHistory history(premission);
+  std::mt19937 random(11);
+  std::normal_distribution<double> normal;
+  for (int i = 0; i < 20; ++i) {
+    SelfCalibrationResult r;
+    r.usable = true;
+    r.estimate = premission;
+    r.estimate.fx = 207.5 + 0.5 * normal(random);
+    r.estimate.fy = 208.02 + 0.01 * normal(random);
+    r.estimate.cx = 162.0 + 0.5 * normal(random);
+    r.estimate.cy = 112.03 + 0.01 * normal(random);
+    r.estimate.k1 = -0.0123 + 0.0004 * normal(random);
+    r.estimate.k2 = 0.00051 + 0.0001 * normal(random);
+    r.covariance = Eigen::MatrixXd::Identity(6, 6) * 1e-4;
+    r.free_parameters = {kFx, kFy, kCx, kCy, kK1, kK2};
+    r.rms_px = 0.31 + 0.002 * normal(random);
+    history.Judge(kStartNs + static_cast<int64_t>(i) * kSecond / 2, r);
+  }
+  StoredHistory stored;
+  stored.premission = premission;
+  stored.attempts = history.attempts();
+  stored.alarms = history.alarms();
+  stored.regimes = history.regimes();
+  // A run's history is followed as it grows: first its opening attempt alone (a flat
+  // series, whole-number ticks), then all of it.
+  StoredHistory opening = stored;
+  opening.attempts.resize(1);
+  auto first = std::make_shared<CalibrationSeries>(MakeCalibrationSeries(std::move(opening)));
+  auto series = std::make_shared<CalibrationSeries>(MakeCalibrationSeries(std::move(stored)));
+  QStringList failures;
+  for (const QSize size : {QSize(1440, 300), QSize(1400, 1000)}) {
+    // In a tab behind another the plots are not redrawn; they are when brought forward.
+    QTabWidget tabs;
+    tabs.resize(size);
+    auto* plots_owned = new CalibrationPlots;
+    CalibrationPlots& plots = *plots_owned;
+    tabs.addTab(new QWidget, QStringLiteral("in front"));
+    tabs.addTab(plots_owned, QStringLiteral("Calibration"));
+    tabs.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&tabs));
+    plots.setSeries(first);
+    QTest::qWait(50);
+    plots.setSeries(series);
+    QTest::qWait(50);
+    tabs.setCurrentIndex(1);
+    QTest::qWait(300);
+    QVERIFY(plots.grab().save(ScreenshotPath(
+        QStringLiteral("calibration_plots_%1x%2.png").arg(size.width()).arg(size.height()))));
+    for (int channel = 0; channel < kNumCalibrationChannels; ++channel) {
+      CalibrationChart& chart = *plots.chart(channel);
+      const QRectF plot_area = chart.chart()->plotArea();
+      QStringList labels;
+      for (const QGraphicsItem* item : chart.scene()->items()) {
+        const auto* text = dynamic_cast<const QGraphicsTextItem*>(item);
+        if (!text || !text->isVisible() || text->toPlainText().isEmpty()) continue;
+        // Value labels sit left of the plot area, within its height.
+        const QRectF box = text->sceneBoundingRect();
+        if (box.right() > plot_area.left() + 1 || box.center().y() < plot_area.top() - 1 ||
+            box.center().y() > plot_area.bottom() + 1 || box.width() > box.height() * 12) {
+          continue;
+        }
+        labels << text->toPlainText();
+      }
+      const QString where = QStringLiteral("%1 at %2x%3 (plot %5 px high): %4")
+                                .arg(ChannelName(channel))
+                                .arg(size.width())
+                                .arg(size.height())
+                                .arg(labels.join(QStringLiteral(", ")))
+                                .arg(plot_area.height());
+      qInfo("%s", qPrintable(where));
+      const bool elided = std::any_of(labels.begin(), labels.end(), [](const QString& label) {
+        return label.contains(QStringLiteral("...")) || label.contains(QChar(0x2026));
+      });
+      // Two values and the axis title at least.
+      if (labels.size() < 3 || elided) failures << where;
+    }
+  }
+  QVERIFY2(failures.isEmpty(), qPrintable(failures.join(QLatin1Char('\n'))));
 }
 
 }  // namespace autocal

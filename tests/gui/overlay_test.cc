@@ -258,8 +258,12 @@ void OverlayTest::CheckLayers(const QString& source, const std::vector<OverlayLa
   QVERIFY(!pipeline.historyPath().isEmpty());
   QTRY_VERIFY_WITH_TIMEOUT(window->calibrationPlots()->series() != nullptr, kFrameTimeoutMs);
 
-  // For each layer, the latest frame with something for it to draw. Boards need planes and
-  // an attempt with boards whose views reach the frame.
+  // For each layer, the latest frame with something for it to draw. Boards need an attempt
+  // whose views reach the frame, and the frame's tracks to confirm the board's pose.
+  std::vector<std::shared_ptr<const AttemptOutcome>> attempts;
+  for (int index = 0; index < frames; ++index) {
+    if (const auto attempt = pipeline.snapshot(index)->attempt) attempts.push_back(attempt);
+  }
   const auto has = [&](OverlayLayer layer, const FrameSnapshot& frame) {
     switch (layer) {
       case OverlayLayer::kLines:
@@ -271,11 +275,17 @@ void OverlayTest::CheckLayers(const QString& source, const std::vector<OverlayLa
       case OverlayLayer::kPlanes:
         return !frame.motion.planes.empty();
       case OverlayLayer::kBoards:
-        for (int judged = 0; judged < frames; ++judged) {
-          const auto attempt = pipeline.snapshot(judged)->attempt;
-          if (attempt && !attempt->boards.empty() && !frame.motion.planes.empty() &&
-              ViewPoseAt(*attempt, frame.t_ns)) {
-            return true;
+        for (const OverlayGeometry::Board& board :
+             MakeOverlayGeometry(frame, PlaceNewestBoards(attempts, frame.t_ns),
+                                 pipeline.options().board, OverlaySpace::kRaw)
+                 .boards) {
+          for (const Polyline& line : board.lines) {
+            for (const Eigen::Vector2d& p : line) {
+              if (p.x() > 10 && p.y() > 10 && p.x() < frame.working.width - 10 &&
+                  p.y() < frame.working.height - 10) {
+                return true;  // Some of it in the picture.
+              }
+            }
           }
         }
         return false;
@@ -461,65 +471,75 @@ void OverlayTest::switchesPersist() {
   QCOMPARE(window.videoView()->viewMode(), VideoView::ViewMode::kSideBySide);
 }
 
-// While boxes 1-10 run at full speed over a 640x480 recording at 30 fps, the recording plays
-// at 1x and the video view's distinct frames painted per second are counted: the redraw
-// rate a user sees. It is reported, not asserted beyond a floor far below the target (3 fps:
-// the window is not stalled): on a loaded 2-core machine even the window alone, without the
-// pipeline, was seen at 10 fps, so a timed assertion near 30 would fail for the machine.
+// While boxes 1-10 run offline at full speed over a 640x480 recording (not paced to its
+// 30 fps), the window follows the pipeline (Playback › Follow the Pipeline) and the distinct
+// frames the video view paints a second are counted: the issue asks for 30 or more. Every
+// frame shown is one the pipeline has done, with its own overlays; frames are skipped when
+// the pipeline is faster than the window. A throughput bound, so it depends on the machine's
+// load: the rates and the load average are printed.
 void OverlayTest::redrawRateWhilePipelineRuns() {
   QTemporaryDir dir;
   QVERIFY(dir.isValid());
   const QString folder = dir.filePath(QStringLiteral("vga"));
-  const auto simulated = OpenSequence("sim:office,seconds=2,resolution=640x480,fps=30");
+  const auto simulated = OpenSequence("sim:office,seconds=8,resolution=640x480,fps=30");
   QVERIFY(WriteSequence(*simulated, folder.toStdString()));
 
   const auto window = OpenWindow(folder);
   QVERIFY(window);
+  window->followPipelineAction()->setChecked(true);
   SetLayers(*window, OverlayLayer::kSnakes | OverlayLayer::kTracks | OverlayLayer::kPlanes);
   PipelineController& pipeline = *window->pipelineController();
   PlaybackController& playback = *window->playback();
   VideoView& view = *window->videoView();
-  QTRY_VERIFY_WITH_TIMEOUT(view.frameIndex() >= 0, kFrameTimeoutMs);
-
-  // Played from the start again whenever it ends, for as long as the pipeline runs (at most
-  // 8 s of measuring).
+  QVERIFY(!playback.isPlaying());
+  // From the pipeline's first frames to its end.
+  QTRY_VERIFY_WITH_TIMEOUT(pipeline.framesDone() >= 10, kPipelineTimeoutMs);
   QElapsedTimer clock;
   clock.start();
   const uint64_t painted_before = view.framesPainted();
-  const uint64_t paints_before = view.paintCount();
-  double seconds = 0.0;
-  // The GUI thread's own CPU time: what a frame costs it, whatever the machine's load.
-  timespec cpu_before;
+  const int done_before = pipeline.framesDone();
+  timespec cpu_before;  // The GUI thread's own CPU time: what a frame costs it.
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &cpu_before);
-  playback.seekToStart();
-  playback.play();
-  while (pipeline.isRunning() && clock.elapsed() < 8000) {
-    QTest::qWait(50);
-    if (!playback.isPlaying()) {
-      playback.seekToStart();
-      playback.play();
-    }
+  int shown_ahead = 0;  // Frames on screen the pipeline had not done: must stay 0.
+  while (pipeline.isRunning()) {
+    QTest::qWait(20);
+    if (view.frameIndex() >= pipeline.framesDone()) ++shown_ahead;
   }
-  seconds = clock.elapsed() * 1e-3;
+  const double seconds = clock.elapsed() * 1e-3;
   timespec cpu_after;
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &cpu_after);
   const double gui_cpu_s = double(cpu_after.tv_sec - cpu_before.tv_sec) +
                            double(cpu_after.tv_nsec - cpu_before.tv_nsec) * 1e-9;
-  const double display_fps = double(view.framesPainted() - painted_before) / seconds;
-  const double paint_rate = double(view.paintCount() - paints_before) / seconds;
+  const uint64_t painted = view.framesPainted() - painted_before;
+  const double display_fps = double(painted) / seconds;
+  const double pipeline_fps = double(pipeline.framesDone() - done_before) / seconds;
   double load[1] = {0.0};
   getloadavg(load, 1);
   qInfo(
-      "redraw while the pipeline ran (640x480, 30 fps recording at 1x, %.1f s): %.1f frames "
-      "on screen per second, %.1f paint events per second; the pipeline at %.1f fps, %d of %d "
-      "frames done; the GUI thread busy %.0f%% of the time (%.1f ms of CPU a frame shown); "
-      "load average %.1f",
-      seconds, display_fps, paint_rate, pipeline.framesPerSecond(), pipeline.framesDone(),
-      pipeline.frameCount(), 100.0 * gui_cpu_s / seconds,
-      1e3 * gui_cpu_s / std::max(1.0, display_fps * seconds), load[0]);
-  QVERIFY(seconds > 1.0);
-  // The window is not stalled by the pipeline; the rate itself goes to the log and docs.
-  QVERIFY2(display_fps >= 3.0, qPrintable(QString::number(display_fps)));
+      "following the pipeline (640x480, offline at full speed, %.1f s): %.1f distinct frames "
+      "on screen per second, the pipeline at %.1f fps (%d frames); the GUI thread busy %.0f%% "
+      "of the time (%.1f ms of CPU a frame shown); load average %.1f",
+      seconds, display_fps, pipeline_fps, pipeline.framesDone(), 100.0 * gui_cpu_s / seconds,
+      1e3 * gui_cpu_s / std::max<double>(1.0, double(painted)), load[0]);
+  QVERIFY2(seconds > 2.0, qPrintable(QString::number(seconds)));
+  QCOMPARE(shown_ahead, 0);
+  // The last frame shown is the pipeline's last, with its overlays.
+  QTRY_COMPARE_WITH_TIMEOUT(view.frameIndex(), pipeline.frameCount() - 1, kFrameTimeoutMs);
+  QTRY_VERIFY_WITH_TIMEOUT(pipeline.current().index == view.frameIndex() &&
+                               view.overlays().raw != nullptr,
+                           kFrameTimeoutMs);
+  SaveScreenshot(window->grab().toImage(), QStringLiteral("workbench_follow.png"));
+  // 30 a second or more, as the issue asks; the window cannot show frames the pipeline has
+  // not made, so where the machine holds the pipeline itself below that (its threads run at
+  // nice 10, behind any other work), the window must keep up with it: nine frames in ten.
+  QVERIFY2(display_fps >= std::min(30.0, 0.9 * pipeline_fps),
+           qPrintable(QStringLiteral("%1 frames a second with the pipeline at %2, load %3")
+                          .arg(display_fps)
+                          .arg(pipeline_fps)
+                          .arg(load[0])));
+  // Playing again stops following.
+  playback.play();
+  QVERIFY(!window->followPipelineAction()->isChecked());
 }
 
 }  // namespace autocal

@@ -14,11 +14,13 @@
 #include <QDoubleSpinBox>
 #include <QElapsedTimer>
 #include <QImage>
+#include <QLabel>
 #include <QMessageBox>
 #include <QPlainTextEdit>
 #include <QSettings>
 #include <QSignalSpy>
 #include <QSlider>
+#include <QStatusBar>
 #include <QTemporaryDir>
 #include <QWheelEvent>
 #include <QtTest>
@@ -30,6 +32,7 @@
 #include "widgets/frame_loader.h"
 #include "widgets/image_convert.h"
 #include "widgets/main_window.h"
+#include "widgets/pipeline_controller.h"
 #include "widgets/playback_controller.h"
 #include "widgets/plot_decimation.h"
 #include "widgets/video_view.h"
@@ -133,6 +136,7 @@ class WorkbenchTest : public QObject {
   void badPathKeepsRecordingOpen();
   void settingsPersist();
   void screenshotIsNotBlank();
+  void statusTextFitsAtDefaultSize();
 
  private:
   // A shown main window with `source` open and its first frame on screen.
@@ -573,6 +577,49 @@ void WorkbenchTest::screenshotIsNotBlank() {
   }
   const double stddev = std::sqrt(sum2 / n - (sum / n) * (sum / n));
   QVERIFY2(stddev > 15.0, qPrintable(QString::number(stddev)));
+}
+
+// At the size a new window opens with (90% of a 1600x1000 screen under Xvfb), while the
+// pipeline runs: the status bar's source and every other label show their whole text, and
+// no two of them overlap (the source was cut to "simulator scenario office (office, tessa",
+// and what was found ran into the pipeline's progress).
+void WorkbenchTest::statusTextFitsAtDefaultSize() {
+  MainWindow window;
+  window.show();
+  QVERIFY(QTest::qWaitForWindowExposed(&window));
+  QSignalSpy opened(&window, &MainWindow::opened);
+  window.open(kSimSource);
+  QVERIFY(opened.wait(60000));
+  QTRY_VERIFY_WITH_TIMEOUT(window.pipelineController()->framesDone() > 10, 60000);
+  window.playback()->pause();
+  window.playback()->seekToIndex(5);  // A frame the pipeline has done: what it found shows.
+  const auto* found = window.findChild<QLabel*>(QStringLiteral("status_found"));
+  QVERIFY(found);
+  QTRY_VERIFY_WITH_TIMEOUT(!found->text().isEmpty(), 20000);
+  QTest::qWait(1200);  // The display rate's label is cleared on the next tick.
+  const auto* source = window.findChild<QLabel*>(QStringLiteral("status_source"));
+  QVERIFY(source);
+  QVERIFY(source->text().startsWith(QStringLiteral("simulator scenario office (")));
+  std::vector<const QLabel*> labels;
+  for (const QLabel* label : window.statusBar()->findChildren<QLabel*>()) {
+    if (label->isVisible() && !label->text().isEmpty()) labels.push_back(label);
+  }
+  labels.push_back(found);
+  QVERIFY(labels.size() >= 5);
+  for (const QLabel* label : labels) {
+    const int needed = label->fontMetrics().horizontalAdvance(label->text());
+    qInfo("%-70s %4d px of %4d", qPrintable(label->text()), needed, label->contentsRect().width());
+    QVERIFY2(needed <= label->contentsRect().width(), qPrintable(label->text()));
+  }
+  for (size_t i = 0; i < labels.size(); ++i) {
+    for (size_t j = i + 1; j < labels.size(); ++j) {
+      const QRect a(labels[i]->mapTo(&window, QPoint(0, 0)), labels[i]->size());
+      const QRect b(labels[j]->mapTo(&window, QPoint(0, 0)), labels[j]->size());
+      QVERIFY2(!a.intersects(b), qPrintable(labels[i]->text() + " / " + labels[j]->text()));
+    }
+  }
+  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
+  QVERIFY(window.grab().save(QDir(dir).filePath(QStringLiteral("workbench_default_size.png"))));
 }
 
 }  // namespace autocal
