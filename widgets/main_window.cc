@@ -169,6 +169,7 @@ void MainWindow::createActions() {
   end_action_->setShortcut(Qt::Key_End);
   play->addSeparator();
   follow_action_ = play->addAction(tr("F&ollow the Pipeline"));
+  follow_action_->setIconText(tr("Follow pipeline"));
   follow_action_->setCheckable(true);
   follow_action_->setShortcut(QKeySequence(QStringLiteral("Ctrl+Shift+F")));
   // Playing at the recording's pace and following the pipeline exclude each other.
@@ -225,6 +226,10 @@ void MainWindow::createCentralArea() {
   transport->addSpacing(12);
   transport->addWidget(new QLabel(tr("Speed")));
   transport->addWidget(speed_box_);
+  auto* follow = new QToolButton;
+  follow->setDefaultAction(follow_action_);
+  follow->setFocusPolicy(Qt::NoFocus);
+  transport->addWidget(follow);
   transport->addSpacing(12);
   transport->addWidget(new QLabel(tr("Plot window")));
   transport->addWidget(window_box_);
