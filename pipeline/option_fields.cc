@@ -482,6 +482,9 @@ std::vector<OptionField> MakeFields() {
       Field<bool>("calibration.warm_start", 0, 1,
                   "start from the previous attempt's solution on the views it shares",
                   &P::calibration, &C::warm_start),
+      Field<double>("calibration.function_tolerance", 1e-12, 0.1,
+                    "converged when an iteration lowers the cost by less than this fraction",
+                    &P::calibration, &C::function_tolerance),
       // The history.
       Field<double>("acceptance.max_rms_px", 0.001, 100,
                     "attempts with a larger reprojection RMS are rejected (px)", &P::acceptance,

@@ -35,6 +35,8 @@ bool SelfCalibrationOptions::Check(std::string* error) const {
     why << "max_focal_sigma must be positive";
   } else if (max_iterations < 1) {
     why << "max_iterations must be at least 1";
+  } else if (!(function_tolerance > 0 && function_tolerance < 1)) {
+    why << "function_tolerance must be between 0 and 1";
   }
   if (why.str().empty()) return true;
   if (error) *error = why.str();
@@ -578,6 +580,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   solver_options.linear_solver_ordering.reset(ordering);
   solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
   // One thread: with two, the gradient and the Schur complement are summed in an order
   // that depends on thread timing, and results would differ in the last digits.
   solver_options.num_threads = 1;
