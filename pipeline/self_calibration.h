@@ -85,7 +85,7 @@ struct SelfCalibrationOptions {
   double max_focal_sigma = 0.01;         // No update when sigma(fx) / fx exceeds this.
   int max_iterations = 100;              // Levenberg-Marquardt iterations.
   // Converged when an iteration lowers the cost by less than this fraction: Ceres' 1e-6
-  // took one more iteration in six or seven for a change in fx below 0.001%.
+  // took one or two more iterations in seven, moving fx by 0.01% at most.
   double function_tolerance = 1e-5;
   bool warm_start = true;                // Start from CalibrationMaterial::start if set.
 
