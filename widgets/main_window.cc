@@ -169,7 +169,7 @@ void MainWindow::createActions() {
   end_action_->setShortcut(Qt::Key_End);
   play->addSeparator();
   follow_action_ = play->addAction(tr("F&ollow the Pipeline"));
-  follow_action_->setIconText(tr("Follow pipeline"));
+  follow_action_->setIconText(tr("Follow"));
   follow_action_->setCheckable(true);
   follow_action_->setShortcut(QKeySequence(QStringLiteral("Ctrl+Shift+F")));
   // Playing at the recording's pace and following the pipeline exclude each other.
