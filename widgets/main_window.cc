@@ -174,7 +174,9 @@ void MainWindow::createActions() {
   follow_action_->setShortcut(QKeySequence(QStringLiteral("Ctrl+Shift+F")));
   // Playing at the recording's pace and following the pipeline exclude each other.
   connect(follow_action_, &QAction::toggled, this, [this](bool on) {
-    if (on) playback_->pause();
+    if (!on) return;
+    playback_->pause();
+    if (pipeline_->framesDone() > 0 && !live_) playback_->seekToIndex(pipeline_->framesDone() - 1);
   });
   connect(playback_, &PlaybackController::playingChanged, this, [this](bool playing) {
     if (playing) follow_action_->setChecked(false);

@@ -537,9 +537,13 @@ void OverlayTest::redrawRateWhilePipelineRuns() {
                           .arg(display_fps)
                           .arg(pipeline_fps)
                           .arg(load[0])));
-  // Playing again stops following.
+  // Playing again stops following; following again goes to the newest frame done.
   playback.play();
   QVERIFY(!window->followPipelineAction()->isChecked());
+  playback.seekToIndex(0);
+  window->followPipelineAction()->setChecked(true);
+  QVERIFY(!playback.isPlaying());
+  QTRY_COMPARE_WITH_TIMEOUT(view.frameIndex(), pipeline.frameCount() - 1, kFrameTimeoutMs);
 }
 
 }  // namespace autocal
