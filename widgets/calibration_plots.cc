@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include <QAction>
 #include <QCheckBox>
@@ -123,6 +125,9 @@ void ExtendRange(const QVector<QPointF>& points, double t0, double t1, double* l
   }
 }
 
+// Each chart's own margins; CalibrationPlots widens the left one to line up a column.
+const QMargins kChartMargins(2, 4, 6, 2);
+
 // Sets a range and its tick interval without passing through a state with a great many
 // ticks (a wide range with a fine interval), which Qt Charts would lay out one by one.
 // The format goes first: the space for the labels is laid out when the range changes.
@@ -157,7 +162,7 @@ CalibrationChart::CalibrationChart(int channel, QWidget* parent)
     : QChartView(parent), channel_(channel) {
   auto* chart = new QChart;
   chart->layout()->setContentsMargins(0, 0, 0, 0);
-  chart->setMargins(QMargins(2, 4, 6, 2));
+  chart->setMargins(kChartMargins);
   chart->setBackgroundRoundness(0);
   chart->legend()->hide();
 
@@ -362,6 +367,7 @@ CalibrationPlots::CalibrationPlots(QWidget* parent) : QWidget(parent) {
     connect(chart, &CalibrationChart::seekRequested, this, &CalibrationPlots::seekRequested);
     connect(chart, &CalibrationChart::resetRequested, this, &CalibrationPlots::resetZoom);
     connect(chart, &CalibrationChart::resized, this, &CalibrationPlots::scheduleRedraw);
+    connect(chart->chart(), &QChart::plotAreaChanged, this, &CalibrationPlots::alignPlotAreas);
     for (int m = 0; m < kNumMarkerClasses; ++m) {
       const auto marker = static_cast<MarkerClass>(m);
       connect(chart->markers(marker), &QScatterSeries::hovered, this,
@@ -443,6 +449,34 @@ CalibrationPlots::CalibrationPlots(QWidget* parent) : QWidget(parent) {
   redraw_timer_.setInterval(0);
   connect(&redraw_timer_, &QTimer::timeout, this, &CalibrationPlots::redraw);
   redraw();
+}
+
+void CalibrationPlots::alignPlotAreas() {
+  if (aligning_) return;
+  aligning_ = true;
+  for (int column = 0; column < 2; ++column) {
+    // Where each chart's plot area would start with its own margin: the value labels'
+    // widths differ from chart to chart ("417.2" against "-0.0123").
+    std::vector<std::pair<QChart*, double>> natural;
+    double widest = 0.0;
+    for (int channel = column; channel < kNumCalibrationChannels; channel += 2) {
+      QChart* chart = charts_[channel]->chart();
+      chart->layout()->activate();  // The plot area as the margins set last lay it out.
+      const double left =
+          chart->plotArea().left() - (chart->margins().left() - kChartMargins.left());
+      natural.emplace_back(chart, left);
+      widest = std::max(widest, left);
+    }
+    for (const auto& [chart, left] : natural) {
+      QMargins margins = chart->margins();
+      const int wanted = kChartMargins.left() + static_cast<int>(std::lround(widest - left));
+      if (margins.left() == wanted) continue;
+      margins.setLeft(wanted);
+      chart->setMargins(margins);
+      chart->layout()->activate();
+    }
+  }
+  aligning_ = false;
 }
 
 QSize CalibrationPlots::sizeHint() const { return {900, 300}; }

@@ -202,6 +202,9 @@ class CalibrationPlots : public QWidget {
   void redraw();
   // Moves the cursor alone: while a recording plays it moves with every frame.
   void moveCursor();
+  // The charts of a column share one time axis: their plot areas are made to start at one
+  // x, so that a time (the cursor, an alarm) is one vertical line down the column.
+  void alignPlotAreas();
   double toSeconds(int64_t t_ns) const;
   // The time span of everything there is to draw.
   std::pair<double, double> fullRange() const;
@@ -231,6 +234,7 @@ class CalibrationPlots : public QWidget {
   std::array<CalibrationChart*, kNumCalibrationChannels> charts_;
   QTimer redraw_timer_;
   bool redraw_when_shown_ = false;
+  bool aligning_ = false;  // Margins set by alignPlotAreas move the plot areas again.
 };
 
 }  // namespace autocal

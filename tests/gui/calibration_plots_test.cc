@@ -191,6 +191,7 @@ class CalibrationPlotsTest : public QObject {
   void drawsAttemptsThatComeWithinTheTimeRange();
   void staysFastWithHoursOfHistory();
   void valueLabelsAreWhole();
+  void timeAxesLineUpDownEachColumn();
 
  private:
   // Plots showing the test history, shown and laid out.
@@ -901,6 +902,26 @@ void CalibrationPlotsTest::valueLabelsAreWhole() {
     }
   }
   QVERIFY2(failures.isEmpty(), qPrintable(failures.join(QLatin1Char('\n'))));
+}
+
+// A time is one vertical line down a column of charts (the cursor, an alarm), however wide
+// each chart's value labels are: fx's "417.2" against k1's "-0.0123".
+void CalibrationPlotsTest::timeAxesLineUpDownEachColumn() {
+  const auto plots = ShowPlots();
+  QVERIFY(plots);
+  const double t_s = 0.5 * (plots->visibleStart() + plots->visibleEnd());
+  for (int column = 0; column < 2; ++column) {
+    QList<int> xs;
+    QStringList where;
+    for (int channel = column; channel < kNumCalibrationChannels; channel += 2) {
+      const CalibrationChart& chart = *plots->chart(channel);
+      const int x = chart.mapTo(plots.get(), chart.positionOf(t_s, 0.0)).x();
+      xs << x;
+      where << QStringLiteral("%1 at %2 px").arg(ChannelName(channel)).arg(x);
+    }
+    const auto [lo, hi] = std::minmax_element(xs.begin(), xs.end());
+    QVERIFY2(*hi - *lo <= 1, qPrintable(where.join(QStringLiteral(", "))));
+  }
 }
 
 }  // namespace autocal
