@@ -3,8 +3,68 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace autocal {
+namespace {
+
+// A piece of a square smaller than this (in squares) only touches the outline: left out.
+constexpr double kTouchingArea = 1e-9;
+
+// Positive when the corners run counter-clockwise (x right, y up).
+double TwiceSignedArea(const std::vector<Eigen::Vector2d>& polygon) {
+  double sum = 0.0;
+  for (size_t k = 0; k < polygon.size(); ++k) {
+    const Eigen::Vector2d& a = polygon[k];
+    const Eigen::Vector2d& b = polygon[(k + 1) % polygon.size()];
+    sum += a.x() * b.y() - a.y() * b.x();
+  }
+  return sum;
+}
+
+// `polygon` cut to the convex `outline` (plane coordinates), one outline edge at a time
+// (Sutherland-Hodgman). Not cv::intersectConvexConvex: its OpenCV 4.6 version returns
+// corners outside the outline when an outline corner lies on a polygon's edge, which is the
+// rule here (the board's corners sit on tracked points, the outline's corners).
+std::vector<Eigen::Vector2d> Cut(std::vector<Eigen::Vector2d> polygon,
+                                 const std::vector<Eigen::Vector2d>& outline) {
+  // Inside is left of every edge when the outline runs counter-clockwise, else right.
+  const double turn = TwiceSignedArea(outline) >= 0.0 ? 1.0 : -1.0;
+  for (size_t k = 0; k < outline.size() && !polygon.empty(); ++k) {
+    const Eigen::Vector2d& a = outline[k];
+    const Eigen::Vector2d edge = outline[(k + 1) % outline.size()] - a;
+    auto side = [&](const Eigen::Vector2d& p) {
+      return turn * (edge.x() * (p - a).y() - edge.y() * (p - a).x());
+    };
+    std::vector<Eigen::Vector2d> kept;
+    for (size_t i = 0; i < polygon.size(); ++i) {
+      const Eigen::Vector2d& p = polygon[i];
+      const Eigen::Vector2d& q = polygon[(i + 1) % polygon.size()];
+      const double sp = side(p), sq = side(q);
+      if (sp >= 0.0) kept.push_back(p);
+      if ((sp >= 0.0) != (sq >= 0.0)) kept.push_back(p + (q - p) * (sp / (sp - sq)));
+    }
+    polygon = std::move(kept);
+  }
+  return polygon;
+}
+
+// The part of `quad` (plane coordinates) within the board's outline, in the world: all of
+// it when the board has no outline, nothing when it lies outside or only touches it.
+ScenePolygon WithinOutline(const VirtualBoard& board, const std::array<Eigen::Vector2d, 4>& quad) {
+  std::vector<Eigen::Vector2d> within(quad.begin(), quad.end());
+  if (board.outline.size() >= 3) within = Cut(std::move(within), board.outline);
+  ScenePolygon polygon;
+  if (std::abs(TwiceSignedArea(within)) <= 2.0 * kTouchingArea * board.square * board.square) {
+    return polygon;
+  }
+  for (const Eigen::Vector2d& p : within) {
+    polygon.push_back(board.world_from_plane * Eigen::Vector3d(p.x(), p.y(), 0.0));
+  }
+  return polygon;
+}
+
+}  // namespace
 
 std::optional<SceneGeometry> MakeSceneGeometry(const AttemptOutcome& attempt,
                                                const CameraIntrinsics& camera,
@@ -24,21 +84,26 @@ std::optional<SceneGeometry> MakeSceneGeometry(const AttemptOutcome& attempt,
   for (const VirtualBoard& board : attempt.boards) {
     SceneBoard drawn;
     drawn.plane_id = board.plane_id;
-    drawn.plane = {board.Corner(-1, -1), board.Corner(board.squares_x + 1, -1),
-                   board.Corner(board.squares_x + 1, board.squares_y + 1),
-                   board.Corner(-1, board.squares_y + 1)};
-    const std::array<Eigen::Vector3d, 4> inner = {
-        board.Corner(0, 0), board.Corner(board.squares_x, 0),
-        board.Corner(board.squares_x, board.squares_y), board.Corner(0, board.squares_y)};
+    auto corner = [&](int i, int j) -> Eigen::Vector2d {
+      return board.origin + board.square * Eigen::Vector2d(i, j);
+    };
+    const std::array<Eigen::Vector2d, 4> grown = {corner(-1, -1), corner(board.squares_x + 1, -1),
+                                                  corner(board.squares_x + 1, board.squares_y + 1),
+                                                  corner(-1, board.squares_y + 1)};
+    const std::array<Eigen::Vector2d, 4> inner = {corner(0, 0), corner(board.squares_x, 0),
+                                                  corner(board.squares_x, board.squares_y),
+                                                  corner(0, board.squares_y)};
     for (size_t k = 0; k < 4; ++k) {
-      drawn.border[k] = {drawn.plane[k], drawn.plane[(k + 1) % 4], inner[(k + 1) % 4], inner[k]};
+      drawn.plane[k] = board.world_from_plane * Eigen::Vector3d(grown[k].x(), grown[k].y(), 0.0);
+      ScenePolygon piece =
+          WithinOutline(board, {grown[k], grown[(k + 1) % 4], inner[(k + 1) % 4], inner[k]});
+      if (!piece.empty()) drawn.border.push_back(std::move(piece));
     }
     for (int j = 0; j < board.squares_y; ++j) {
       for (int i = 0; i < board.squares_x; ++i) {
-        const std::array<Eigen::Vector3d, 4> square = {
-            board.Corner(i, j), board.Corner(i + 1, j), board.Corner(i + 1, j + 1),
-            board.Corner(i, j + 1)};
-        ((i + j) % 2 == 0 ? drawn.dark : drawn.light).push_back(square);
+        ScenePolygon square = WithinOutline(
+            board, {corner(i, j), corner(i + 1, j), corner(i + 1, j + 1), corner(i, j + 1)});
+        if (!square.empty()) ((i + j) % 2 == 0 ? drawn.dark : drawn.light).push_back(square);
       }
     }
     const Eigen::Vector3d board_centre =
@@ -54,9 +119,10 @@ std::optional<SceneGeometry> MakeSceneGeometry(const AttemptOutcome& attempt,
   scene.frustum[0] = centre;
   for (size_t k = 0; k < corners.size(); ++k) {
     // Beyond the fold of a strong barrel the corner has no ray: the pinhole's then.
-    const Eigen::Vector2d ray = Unproject(camera, corners[k])
-                                    .value_or(Eigen::Vector2d((corners[k].x() - camera.cx) / camera.fx,
-                                                              (corners[k].y() - camera.cy) / camera.fy));
+    const Eigen::Vector2d ray =
+        Unproject(camera, corners[k])
+            .value_or(Eigen::Vector2d((corners[k].x() - camera.cx) / camera.fx,
+                                      (corners[k].y() - camera.cy) / camera.fy));
     scene.frustum[k + 1] = *newest * (scene.frustum_depth * ray.homogeneous());
   }
   if (gravity_cam && gravity_cam->norm() > 0) {

@@ -17,15 +17,21 @@
 
 namespace autocal {
 
+// A convex polygon, its corners in order.
+using ScenePolygon = std::vector<Eigen::Vector3d>;
+
+// Everything of a board is cut to its outline (VirtualBoard::outline, the hull of the
+// tracked points), as the video overlay draws it: the plane is shown only where it was seen.
 struct SceneBoard {
   int plane_id = 0;
   // The plane around the board: the board grown by one square on every side.
   std::array<Eigen::Vector3d, 4> plane;
-  // Squares, each as its four corners in order; dark are those with (i + j) even.
-  std::vector<std::array<Eigen::Vector3d, 4>> dark, light;
-  // The plane outside the board, as four quads: with the light squares, the plane's area
-  // without the dark squares (nothing drawn twice in one place).
-  std::array<std::array<Eigen::Vector3d, 4>, 4> border;
+  // Squares, each within the outline; dark are those with (i + j) even. A square wholly
+  // outside is left out.
+  std::vector<ScenePolygon> dark, light;
+  // The plane outside the board, as up to four pieces: with the light squares, the plane's
+  // area without the dark squares (nothing drawn twice in one place).
+  std::vector<ScenePolygon> border;
 };
 
 struct SceneGeometry {

@@ -43,7 +43,9 @@ AttemptOutcome Attempt() {
 }
 
 TEST(SceneGeometry, TrajectoryFrustumBoardsAndGravity) {
-  const AttemptOutcome attempt = Attempt();
+  AttemptOutcome attempt = Attempt();
+  // Without an outline the whole board is drawn (cut to it: CutToTheTrackedOutline).
+  attempt.boards.front().outline.clear();
   const CameraIntrinsics lens = Lens();
   const Eigen::Vector3d gravity_cam(0.3, 9.7, 0.5);
   const std::optional<SceneGeometry> scene = MakeSceneGeometry(attempt, lens, gravity_cam);
@@ -89,7 +91,8 @@ TEST(SceneGeometry, TrajectoryFrustumBoardsAndGravity) {
   }
   EXPECT_TRUE(drawn.dark.front()[0].isApprox(board.Corner(0, 0), 1e-12));
   EXPECT_TRUE(drawn.plane[0].isApprox(board.Corner(-1, -1), 1e-12));
-  EXPECT_TRUE(drawn.plane[2].isApprox(board.Corner(board.squares_x + 1, board.squares_y + 1), 1e-12));
+  EXPECT_TRUE(
+      drawn.plane[2].isApprox(board.Corner(board.squares_x + 1, board.squares_y + 1), 1e-12));
   // The border runs from the plane's outline to the board's.
   EXPECT_TRUE(drawn.border[0][0].isApprox(drawn.plane[0], 1e-12));
   EXPECT_TRUE(drawn.border[0][3].isApprox(board.Corner(0, 0), 1e-12));
@@ -97,8 +100,44 @@ TEST(SceneGeometry, TrajectoryFrustumBoardsAndGravity) {
 
   ASSERT_TRUE(scene->gravity);
   EXPECT_NEAR(scene->gravity->norm(), 1.0, 1e-12);
-  EXPECT_TRUE(scene->gravity->isApprox(
-      cam_from_world.inverse().linear() * gravity_cam.normalized(), 1e-12));
+  EXPECT_TRUE(scene->gravity->isApprox(cam_from_world.inverse().linear() * gravity_cam.normalized(),
+                                       1e-12));
+}
+
+// The board as the video overlay draws it: only within the hull of the plane's tracked
+// points, here the triangle (-0.5, -0.4), (0.7, 0.5), (0.1, 0) on the wall z = 2, which
+// lies within the board grown by a square; its area, worked by hand, is 0.03.
+TEST(SceneGeometry, CutToTheTrackedOutline) {
+  const AttemptOutcome attempt = Attempt();
+  ASSERT_EQ(attempt.boards.front().outline.size(), 3u);
+  const std::optional<SceneGeometry> scene = MakeSceneGeometry(attempt, Lens(), std::nullopt);
+  ASSERT_TRUE(scene);
+  const SceneBoard& drawn = scene->boards.front();
+  const Eigen::Vector2d a(-0.5, -0.4), b(0.7, 0.5), c(0.1, 0.0);
+  auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& v) {
+    return u.x() * v.y() - u.y() * v.x();
+  };
+  double area = 0.0;
+  int polygons = 0;
+  for (const auto* pieces : {&drawn.dark, &drawn.light, &drawn.border}) {
+    for (const ScenePolygon& polygon : *pieces) {
+      ASSERT_GE(polygon.size(), 3u);
+      ++polygons;
+      for (size_t k = 0; k < polygon.size(); ++k) {
+        const Eigen::Vector3d& p = polygon[k];
+        EXPECT_NEAR(p.z(), 2.0, 1e-12);
+        const Eigen::Vector2d q = p.head<2>();
+        // Inside the triangle (clockwise): on the inner side of each edge, within the
+        // rounding of the outline (cv::convexHull keeps it in float).
+        EXPECT_LE(cross(b - a, q - a), 1e-7) << q.transpose();
+        EXPECT_LE(cross(c - b, q - b), 1e-7) << q.transpose();
+        EXPECT_LE(cross(a - c, q - c), 1e-7) << q.transpose();
+        area += 0.5 * cross(p.head<2>(), polygon[(k + 1) % polygon.size()].head<2>());
+      }
+    }
+  }
+  EXPECT_GT(polygons, 3);
+  EXPECT_NEAR(std::abs(area), 0.03, 1e-7) << "the pieces cover the triangle, once";
 }
 
 TEST(SceneGeometry, NothingWithoutAPoseAndNoGravityUnlessKnown) {

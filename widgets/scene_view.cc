@@ -68,13 +68,14 @@ vtkSmartPointer<vtkActor> Polylines(const std::vector<std::vector<Eigen::Vector3
   return actor;
 }
 
-vtkSmartPointer<vtkActor> Quads(const std::vector<std::array<Eigen::Vector3d, 4>>& quads,
-                                const QColor& color) {
+vtkSmartPointer<vtkActor> Polygons(const std::vector<ScenePolygon>& polygons, const QColor& color) {
   vtkNew<vtkPoints> points;
   vtkNew<vtkCellArray> cells;
-  for (const auto& quad : quads) {
-    cells->InsertNextCell(4);
-    for (const Eigen::Vector3d& p : quad) cells->InsertCellPoint(points->InsertNextPoint(p.data()));
+  for (const ScenePolygon& polygon : polygons) {
+    cells->InsertNextCell(static_cast<vtkIdType>(polygon.size()));
+    for (const Eigen::Vector3d& p : polygon) {
+      cells->InsertCellPoint(points->InsertNextPoint(p.data()));
+    }
   }
   vtkNew<vtkPolyData> data;
   data->SetPoints(points);
@@ -169,10 +170,10 @@ void SceneView::rebuild() {
   for (const SceneBoard& board : s.boards) {
     // The plane in its colour (its border and the light squares), the dark squares apart:
     // no two polygons in one place to fight over the depth.
-    std::vector<std::array<Eigen::Vector3d, 4>> plane(board.border.begin(), board.border.end());
+    std::vector<ScenePolygon> plane = board.border;
     plane.insert(plane.end(), board.light.begin(), board.light.end());
-    renderer->AddActor(Quads(plane, ScenePlaneColor(board.plane_id)));
-    renderer->AddActor(Quads(board.dark, SceneDarkSquareColor()));
+    renderer->AddActor(Polygons(plane, ScenePlaneColor(board.plane_id)));
+    renderer->AddActor(Polygons(board.dark, SceneDarkSquareColor()));
   }
   if (s.gravity) {
     const double length = s.frustum_depth;  // Longer would pierce the floor under the camera.
