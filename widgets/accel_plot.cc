@@ -186,16 +186,13 @@ void AccelPlot::scheduleRedraw() {
 void AccelPlot::redraw() {
   since_redraw_.start();
   redraw_when_shown_ = false;
-  // A window centred on the cursor, held inside the recording near its ends.
-  double t0 = cursor_s_ - window_s_ / 2.0;
-  if (duration_s_ > window_s_) {
-    t0 = std::clamp(t0, 0.0, duration_s_ - window_s_);
-  } else {
-    t0 = 0.0;
-  }
-  const double t1 = t0 + window_s_;
+  // A window centred on the cursor, held inside the recording near its ends; a recording
+  // shorter than the window is shown whole, not in a corner of an empty plot.
+  const double span = duration_s_ > 0.0 ? std::min(window_s_, duration_s_) : window_s_;
+  const double t0 = std::clamp(cursor_s_ - span / 2.0, 0.0, std::max(0.0, duration_s_ - span));
+  const double t1 = t0 + span;
   time_axis_->setRange(t0, t1);
-  const double time_tick = NiceTickInterval(window_s_, 10);
+  const double time_tick = NiceTickInterval(span, 10);
   time_axis_->setTickInterval(time_tick);
   time_axis_->setLabelFormat(LabelFormat(time_tick));
 

@@ -38,7 +38,9 @@ class AccelPlot : public QChartView {
   void setSamples(const std::vector<AccelSample>& samples, int64_t start_ns, double duration_s);
 
   QSize sizeHint() const override;
+  // The window asked for; the span shown is the recording's when that is shorter.
   double windowSeconds() const { return window_s_; }
+  double durationSeconds() const { return duration_s_; }
   // Where the cursor line is drawn now (it catches up with setCursorTime on the next
   // redraw).
   double drawnCursorTime() const;
