@@ -134,9 +134,9 @@ double* ParameterArena::Add(std::span<const double> initial) {
   return values_.data() + start;
 }
 
-// Group 0 blocks go block by block, the few hundred other columns densely. Ceres'
-// Covariance factors the whole Jacobian by sparse QR instead: most of a solve's time, and
-// on TBB threads it sums in an order that varies between runs.
+// Group 0 blocks go block by block, then the other columns' Schur complement by a sparse
+// LDLT. Ceres' Covariance factors the whole Jacobian by sparse QR instead: most of a
+// solve's time, and on TBB threads it sums in an order that varies between runs.
 std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
                                                   const ceres::ParameterBlockOrdering& ordering,
                                                   double* intrinsics) {
