@@ -3,62 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <utility>
 
 namespace autocal {
 namespace {
 
-// A piece of a square smaller than this (in squares) only touches the outline: left out.
-constexpr double kTouchingArea = 1e-9;
-
-// Positive when the corners run counter-clockwise (x right, y up).
-double TwiceSignedArea(const std::vector<Eigen::Vector2d>& polygon) {
-  double sum = 0.0;
-  for (size_t k = 0; k < polygon.size(); ++k) {
-    const Eigen::Vector2d& a = polygon[k];
-    const Eigen::Vector2d& b = polygon[(k + 1) % polygon.size()];
-    sum += a.x() * b.y() - a.y() * b.x();
-  }
-  return sum;
-}
-
-// `polygon` cut to the convex `outline` (plane coordinates), one outline edge at a time
-// (Sutherland-Hodgman). Not cv::intersectConvexConvex: its OpenCV 4.6 version returns
-// corners outside the outline when an outline corner lies on a polygon's edge, which is the
-// rule here (the board's corners sit on tracked points, the outline's corners).
-std::vector<Eigen::Vector2d> Cut(std::vector<Eigen::Vector2d> polygon,
-                                 const std::vector<Eigen::Vector2d>& outline) {
-  // Inside is left of every edge when the outline runs counter-clockwise, else right.
-  const double turn = TwiceSignedArea(outline) >= 0.0 ? 1.0 : -1.0;
-  for (size_t k = 0; k < outline.size() && !polygon.empty(); ++k) {
-    const Eigen::Vector2d& a = outline[k];
-    const Eigen::Vector2d edge = outline[(k + 1) % outline.size()] - a;
-    auto side = [&](const Eigen::Vector2d& p) {
-      return turn * (edge.x() * (p - a).y() - edge.y() * (p - a).x());
-    };
-    std::vector<Eigen::Vector2d> kept;
-    for (size_t i = 0; i < polygon.size(); ++i) {
-      const Eigen::Vector2d& p = polygon[i];
-      const Eigen::Vector2d& q = polygon[(i + 1) % polygon.size()];
-      const double sp = side(p), sq = side(q);
-      if (sp >= 0.0) kept.push_back(p);
-      if ((sp >= 0.0) != (sq >= 0.0)) kept.push_back(p + (q - p) * (sp / (sp - sq)));
-    }
-    polygon = std::move(kept);
-  }
-  return polygon;
-}
-
-// The part of `quad` (plane coordinates) within the board's outline, in the world: all of
-// it when the board has no outline, nothing when it lies outside or only touches it.
+// The part of `quad` (plane coordinates) within the board's outline, in the world.
 ScenePolygon WithinOutline(const VirtualBoard& board, const std::array<Eigen::Vector2d, 4>& quad) {
-  std::vector<Eigen::Vector2d> within(quad.begin(), quad.end());
-  if (board.outline.size() >= 3) within = Cut(std::move(within), board.outline);
   ScenePolygon polygon;
-  if (std::abs(TwiceSignedArea(within)) <= 2.0 * kTouchingArea * board.square * board.square) {
-    return polygon;
-  }
-  for (const Eigen::Vector2d& p : within) {
+  for (const Eigen::Vector2d& p : CutToOutline(board, {quad.begin(), quad.end()})) {
     polygon.push_back(board.world_from_plane * Eigen::Vector3d(p.x(), p.y(), 0.0));
   }
   return polygon;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -102,6 +103,9 @@ VirtualBoard AttachBoard(int plane_id, const Eigen::Isometry3d& world_from_plane
 
 namespace {
 
+// A piece of a square smaller than this (in squares) only touches the outline.
+constexpr double kTouchingArea = 1e-9;
+
 // Squared radius (ideal normalized coordinates) of the rays the image's corners see, with a
 // quarter more: beyond the image's own field the lens model means nothing (a strong
 // barrel's polynomial folds back, and a far point of a board lying along the view would be
@@ -116,27 +120,39 @@ double DrawableFieldRadius2(const CameraIntrinsics& camera) {
   return widest > 0.0 ? 1.25 * 1.25 * widest : std::numeric_limits<double>::infinity();
 }
 
+// Twice the polygon's signed area: positive when its corners run counter-clockwise.
+double TwiceSignedArea(const std::vector<Eigen::Vector2d>& polygon) {
+  double sum = 0.0;
+  for (size_t i = 0; i < polygon.size(); ++i) {
+    const Eigen::Vector2d& a = polygon[i];
+    const Eigen::Vector2d& b = polygon[(i + 1) % polygon.size()];
+    sum += a.x() * b.y() - a.y() * b.x();
+  }
+  return sum;
+}
+
+// How far `p` lies inside the edge from `from` along `edge` of a polygon whose corners run
+// with `winding` (+1 counter-clockwise, -1 clockwise): negative outside.
+double Inside(const Eigen::Vector2d& from, const Eigen::Vector2d& edge, double winding,
+              const Eigen::Vector2d& p) {
+  return winding * (edge.x() * (p - from).y() - edge.y() * (p - from).x());
+}
+
 // The part [*first, *last] of the segment from `a` (0) to `b` (1) inside the convex polygon
 // `polygon` (either winding; Cyrus-Beck). False when none of it is, or the polygon has no
 // area.
 bool ClipToConvex(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
                   const std::vector<Eigen::Vector2d>& polygon, double* first, double* last) {
-  const auto cross = [](const Eigen::Vector2d& u, const Eigen::Vector2d& v) {
-    return u.x() * v.y() - u.y() * v.x();
-  };
-  double area2 = 0.0;
-  for (size_t i = 0; i < polygon.size(); ++i) {
-    area2 += cross(polygon[i], polygon[(i + 1) % polygon.size()]);
-  }
+  const double area2 = TwiceSignedArea(polygon);
   if (polygon.size() < 3 || area2 == 0.0) return false;
   const double winding = area2 > 0.0 ? 1.0 : -1.0;
   *first = 0.0;
   *last = 1.0;
   for (size_t i = 0; i < polygon.size(); ++i) {
     const Eigen::Vector2d edge = polygon[(i + 1) % polygon.size()] - polygon[i];
-    // Inside is to the left of each edge (counter-clockwise): at + t * slope >= 0.
-    const double at = winding * cross(edge, a - polygon[i]);
-    const double slope = winding * cross(edge, b - a);
+    // Inside at a + t (b - a) where at + t * slope >= 0.
+    const double at = Inside(polygon[i], edge, winding, a);
+    const double slope = Inside(polygon[i], edge, winding, b) - at;
     if (slope == 0.0) {
       if (at < 0.0) return false;
     } else if (slope > 0.0) {
@@ -205,6 +221,36 @@ BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d&
     }
   }
   return projection;
+}
+
+std::vector<Eigen::Vector2d> CutToOutline(const VirtualBoard& board,
+                                          std::vector<Eigen::Vector2d> polygon) {
+  const std::vector<Eigen::Vector2d>& outline = board.outline;
+  if (outline.size() >= 3) {
+    const double winding = TwiceSignedArea(outline) >= 0.0 ? 1.0 : -1.0;
+    // One outline edge at a time (Sutherland-Hodgman). Not cv::intersectConvexConvex: its
+    // OpenCV 4.6 version returns corners outside when an outline corner lies on one of the
+    // polygon's edges, which is the rule for a board's squares (its corners sit on tracked
+    // points, the outline's corners).
+    for (size_t k = 0; k < outline.size() && !polygon.empty(); ++k) {
+      const Eigen::Vector2d edge = outline[(k + 1) % outline.size()] - outline[k];
+      std::vector<Eigen::Vector2d> kept;
+      for (size_t i = 0; i < polygon.size(); ++i) {
+        const Eigen::Vector2d& p = polygon[i];
+        const Eigen::Vector2d& q = polygon[(i + 1) % polygon.size()];
+        const double sp = Inside(outline[k], edge, winding, p);
+        const double sq = Inside(outline[k], edge, winding, q);
+        if (sp >= 0.0) kept.push_back(p);
+        if ((sp >= 0.0) != (sq >= 0.0)) kept.push_back(p + (q - p) * (sp / (sp - sq)));
+      }
+      polygon = std::move(kept);
+    }
+  }
+  // What is left of a polygon that only touches the outline has no area.
+  if (std::abs(TwiceSignedArea(polygon)) <= 2.0 * kTouchingArea * board.square * board.square) {
+    return {};
+  }
+  return polygon;
 }
 
 std::optional<double> BoardTrackError(

@@ -73,6 +73,11 @@ struct BoardProjection {
 BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d& cam_from_world,
                              const CameraIntrinsics& camera, const VirtualBoardOptions& options);
 
+// The part of the convex `polygon` (plane coordinates) inside the board's outline: all of
+// it when the board has no outline, none when it lies outside or only touches it.
+std::vector<Eigen::Vector2d> CutToOutline(const VirtualBoard& board,
+                                          std::vector<Eigen::Vector2d> polygon);
+
 // How far, in pixels, the board's pose puts its tracked points from where a frame sees them
 // (`seen`: track id and pixel, through `camera`): the median over the tracks the frame
 // shows; none when it shows fewer than `min_tracks`. A point behind the camera counts as

@@ -855,11 +855,11 @@ void CalibrationPlots::redraw() {
     for (size_t i = 0; i < alarm_t_.size(); ++i) {
       chart.alarms()[i]->replace(QVector<QPointF>{{alarm_t_[i], lo}, {alarm_t_[i], hi}});
     }
-    chart.cursor()->replace(QVector<QPointF>{{cursor_s_, lo}, {cursor_s_, hi}});
     QVector<QPointF> no_updates = decimate(no_updates_.t, no_updates_.v);
     for (QPointF& point : no_updates) point.setY(lo + kNoUpdateRowHeight * (hi - lo));
     chart.noUpdates()->replace(no_updates);
   }
+  moveCursor();  // Across each chart's new value range.
 }
 
 }  // namespace autocal
