@@ -69,6 +69,43 @@ Eigen::Vector2d Project(const CameraIntrinsics& camera, const Eigen::Vector3d& p
   return pixel;
 }
 
+void ProjectNormalized(const double* intrinsics, double x, double y, double* pixel,
+                       double* by_intrinsics, double* by_normalized) {
+  const double* dist = intrinsics + kK1;  // k1, k2, p1, p2, k3.
+  const double fx = intrinsics[kFx], fy = intrinsics[kFy];
+  double xd, yd;
+  DistortNormalized(dist, x, y, &xd, &yd);
+  pixel[0] = fx * xd + intrinsics[kCx];
+  pixel[1] = fy * yd + intrinsics[kCy];
+  if (by_intrinsics) {
+    const double r2 = x * x + y * y, r4 = r2 * r2, xy2 = 2.0 * x * y;
+    Eigen::Map<Eigen::Matrix<double, 2, kNumIntrinsics, Eigen::RowMajor>> d(by_intrinsics);
+    d.setZero();
+    d(0, kFx) = xd;
+    d(1, kFy) = yd;
+    d(0, kCx) = 1.0;
+    d(1, kCy) = 1.0;
+    d(0, kK1) = fx * x * r2;
+    d(1, kK1) = fy * y * r2;
+    d(0, kK2) = fx * x * r4;
+    d(1, kK2) = fy * y * r4;
+    d(0, kK3) = fx * x * r4 * r2;
+    d(1, kK3) = fy * y * r4 * r2;
+    d(0, kP1) = fx * xy2;
+    d(1, kP1) = fy * (r2 + 2.0 * y * y);
+    d(0, kP2) = fx * (r2 + 2.0 * x * x);
+    d(1, kP2) = fy * xy2;
+  }
+  if (by_normalized) {
+    double lens[4];
+    DistortionJacobian(dist, x, y, lens);
+    by_normalized[0] = fx * lens[0];
+    by_normalized[1] = fx * lens[1];
+    by_normalized[2] = fy * lens[2];
+    by_normalized[3] = fy * lens[3];
+  }
+}
+
 std::optional<Eigen::Vector2d> UndistortNormalized(const std::array<double, 5>& dist,
                                                    const Eigen::Vector2d& distorted,
                                                    double tolerance,

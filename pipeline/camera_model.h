@@ -97,6 +97,12 @@ void ProjectPoint(const T* intrinsics, const T* point_cam, T* pixel) {
   pixel[1] = intrinsics[kFy] * yd + intrinsics[kCy];
 }
 
+// The pixel of ideal normalized coordinates (x, y) through the packed intrinsics, with its
+// derivatives by hand for the solvers' residuals: by the intrinsics (2 x kNumIntrinsics,
+// row-major) and by (x, y) (2 x 2, row-major); either may be null.
+void ProjectNormalized(const double* intrinsics, double x, double y, double* pixel,
+                       double* by_intrinsics, double* by_normalized);
+
 // Pixel of a point in the camera frame.
 Eigen::Vector2d Project(const CameraIntrinsics& camera, const Eigen::Vector3d& point_cam);
 

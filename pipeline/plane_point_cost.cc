@@ -67,40 +67,15 @@ bool PlanePointCost::Evaluate(double const* const* parameters, double* residuals
 
   const double inv_z = 1.0 / point.z();
   const double x = point.x() * inv_z, y = point.y() * inv_z;
-  const double* dist = intrinsics + kK1;  // k1, k2, p1, p2, k3.
-  double xd, yd;
-  DistortNormalized(dist, x, y, &xd, &yd);
-  const double fx = intrinsics[kFx], fy = intrinsics[kFy];
-  residuals[0] = fx * xd + intrinsics[kCx] - pixel_.x();
-  residuals[1] = fy * yd + intrinsics[kCy] - pixel_.y();
-  if (!jacobians) return true;
+  const bool by_pose = jacobians && (jacobians[1] || jacobians[2] || jacobians[3]);
+  Eigen::Matrix<double, 2, 2, Eigen::RowMajor> by_normalized;
+  ProjectNormalized(intrinsics, x, y, residuals, jacobians ? jacobians[0] : nullptr,
+                    by_pose ? by_normalized.data() : nullptr);
+  residuals[0] -= pixel_.x();
+  residuals[1] -= pixel_.y();
+  if (!by_pose) return true;
 
-  if (double* j = jacobians[0]) {
-    const double r2 = x * x + y * y, r4 = r2 * r2, xy2 = 2.0 * x * y;
-    Eigen::Map<Eigen::Matrix<double, 2, kNumIntrinsics, Eigen::RowMajor>> d(j);
-    d.setZero();
-    d(0, kFx) = xd;
-    d(1, kFy) = yd;
-    d(0, kCx) = 1.0;
-    d(1, kCy) = 1.0;
-    d(0, kK1) = fx * x * r2;
-    d(1, kK1) = fy * y * r2;
-    d(0, kK2) = fx * x * r4;
-    d(1, kK2) = fy * y * r4;
-    d(0, kK3) = fx * x * r4 * r2;
-    d(1, kK3) = fy * y * r4 * r2;
-    d(0, kP1) = fx * xy2;
-    d(1, kP1) = fy * (r2 + 2.0 * y * y);
-    d(0, kP2) = fx * (r2 + 2.0 * x * x);
-    d(1, kP2) = fy * xy2;
-  }
-  if (!jacobians[1] && !jacobians[2] && !jacobians[3]) return true;
-
-  // Pixels by the point in the camera: focal lengths, lens, perspective division.
-  double lens[4];
-  DistortionJacobian(dist, x, y, lens);
-  Eigen::Matrix2d by_normalized;
-  by_normalized << fx * lens[0], fx * lens[1], fy * lens[2], fy * lens[3];
+  // Pixels by the point in the camera: lens and focal lengths, perspective division.
   RowMajor2x3 division;
   division << inv_z, 0.0, -x * inv_z, 0.0, inv_z, -y * inv_z;
   const RowMajor2x3 by_point = by_normalized * division;

@@ -223,6 +223,32 @@ std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
   return covariance;
 }
 
+bool LinePointCost::Evaluate(double const* const* parameters, double* residuals,
+                             double** jacobians) const {
+  const double* intrinsics = parameters[0];
+  const double theta = parameters[1][0], rho = parameters[1][1], s = parameters[2][0];
+  const double nx = std::cos(theta), ny = std::sin(theta);
+  const double x = rho * nx - s * ny, y = rho * ny + s * nx;
+  const bool by_line = jacobians && (jacobians[1] || jacobians[2]);
+  double by_normalized[4];
+  ProjectNormalized(intrinsics, x, y, residuals, jacobians ? jacobians[0] : nullptr,
+                    by_line ? by_normalized : nullptr);
+  residuals[0] -= pixel_.x();
+  residuals[1] -= pixel_.y();
+  if (!by_line) return true;
+  // (x, y) by t is (-y, x), by rho the normal (nx, ny), by s the direction (-ny, nx).
+  const auto chain = [&](double dx, double dy, double* row0, double* row1) {
+    *row0 = by_normalized[0] * dx + by_normalized[1] * dy;
+    *row1 = by_normalized[2] * dx + by_normalized[3] * dy;
+  };
+  if (double* j = jacobians[1]) {
+    chain(-y, x, &j[0], &j[2]);
+    chain(nx, ny, &j[1], &j[3]);
+  }
+  if (double* j = jacobians[2]) chain(-ny, nx, &j[0], &j[1]);
+  return true;
+}
+
 size_t PlumbLineParameterCount(const std::vector<const LineObservation*>& lines) {
   size_t count = 0;
   for (const LineObservation* line : lines) count += 2 + line->points.size();
@@ -241,8 +267,7 @@ void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
     for (size_t k = 0; k < ideal.size(); ++k) {
       double* const position = arena->Add(std::array{along.dot(ideal[k])});
       problem->AddResidualBlock(
-          new ceres::AutoDiffCostFunction<LinePointCost, 2, kNumIntrinsics, 2, 1>(
-              new LinePointCost(observed->points[k])),
+          new LinePointCost(observed->points[k]),
           new ceres::CauchyLoss(loss_px), intrinsics, line, position);
       ordering->AddElementToGroup(position, 0);
     }
