@@ -218,13 +218,51 @@ void Runtime::FeedAccel(int64_t t_ns) {
   if (!batch.empty()) motion_.AddAccel(batch);
 }
 
+std::optional<Runtime::Judgement> Runtime::Judge(const Pending& pending,
+                                                 std::unique_lock<std::mutex>* solve_lock) {
+  solve_changed_.wait(*solve_lock, [&] { return stopping_ || solve_result_.has_value(); });
+  if (!solve_result_) return std::nullopt;  // Stopping.
+  const SelfCalibrationResult result = std::move(*solve_result_);
+  solve_result_.reset();
+  solved_ = false;
+  Judgement judged;
+  judged.solve_ms = solve_ms_;
+  solve_lock->unlock();
+  const auto start = Clock::now();
+  judged.attempt = motion_.Judge(pending.job, result);
+  judged.history_ms = MillisecondsSince(start);
+  const double latency_ms = MillisecondsSince(pending.pushed);
+  std::lock_guard stats_lock(stats_mutex_);
+  ++stats_.judged;
+  stats_.update_latency_ms.push_back(latency_ms);
+  return judged;
+}
+
 void Runtime::MotionLoop() {
   try {
     std::optional<Pending> pending;
+    std::optional<Judgement> judged_between;  // Live, while idle: for the next snapshot.
     int64_t frame = 0;
     int64_t applied = 0;
-    while (std::optional<HalfDone> half = between_.Pop()) {
+    while (true) {
+      std::optional<HalfDone> half =
+          options_.live ? between_.PopUnless([&] { return pending && solved_; }) : between_.Pop();
       if (stopping_) break;
+      if (!half) {
+        if (!pending || !solved_) break;  // The queue closed.
+        // Live, idle and the solve ended: its calibration goes in effect now, not at the
+        // next frame (up to a frame interval and that frame's boxes 1-9 later).
+        std::unique_lock lock(solve_mutex_);
+        judged_between = Judge(*pending, &lock);
+        if (!judged_between) break;  // Stopping.
+        pending.reset();
+        {
+          std::lock_guard state_lock(state_mutex_);
+          newest_state_ = motion_.state();
+        }
+        state_changed_.notify_all();
+        continue;
+      }
       {
         std::lock_guard lock(options_mutex_);
         motion_index_ = half->index;
@@ -234,6 +272,16 @@ void Runtime::MotionLoop() {
       std::optional<CalibrationJob> job;
       auto snapshot =
           std::make_shared<FrameSnapshot>(motion_.Process(std::move(half->frame), &job));
+      const auto attach = [&](Judgement judged) {
+        snapshot->attempt = std::move(judged.attempt);
+        snapshot->calibration = motion_.state().filtered;
+        snapshot->timing.calibration_ms = judged.solve_ms;
+        snapshot->timing.history_ms = judged.history_ms;
+      };
+      if (judged_between) {
+        attach(std::move(*judged_between));
+        judged_between.reset();
+      }
       if (job) {
         pending = Pending{*job, frame, half->pushed};
         {
@@ -251,21 +299,10 @@ void Runtime::MotionLoop() {
                                ? solve_result_.has_value()
                                : frame >= pending->frame + options_.judge_after_frames;
         if (judge) {
-          solve_changed_.wait(lock, [&] { return stopping_ || solve_result_.has_value(); });
-          if (!solve_result_) break;  // Stopping.
-          const SelfCalibrationResult result = std::move(*solve_result_);
-          solve_result_.reset();
-          snapshot->timing.calibration_ms = solve_ms_;
-          lock.unlock();
-          const auto start = Clock::now();
-          snapshot->attempt = motion_.Judge(pending->job, result);
-          snapshot->calibration = motion_.state().filtered;
-          snapshot->timing.history_ms = MillisecondsSince(start);
-          const double latency_ms = MillisecondsSince(pending->pushed);
+          std::optional<Judgement> judged = Judge(*pending, &lock);
+          if (!judged) break;  // Stopping.
           pending.reset();
-          std::lock_guard stats_lock(stats_mutex_);
-          ++stats_.judged;
-          stats_.update_latency_ms.push_back(latency_ms);
+          attach(std::move(*judged));
         }
       }
       {
@@ -307,8 +344,10 @@ void Runtime::SolveLoop() {
       lock.lock();
       solve_result_ = std::move(result);
       solve_ms_ = ms;
+      solved_ = true;
       lock.unlock();
       solve_changed_.notify_all();
+      between_.Wake();
     }
   } catch (...) {
     Fail(std::current_exception());

@@ -60,13 +60,24 @@ class BoundedQueue {
   }
   // Waits for an item; nothing once the queue is closed and empty.
   std::optional<T> Pop() {
+    return PopUnless([] { return false; });
+  }
+  // Waits for an item, or for `woken()` to hold (tested on entry and at each Wake()):
+  // nothing when woken with the queue empty, or once closed and empty.
+  template <typename Predicate>
+  std::optional<T> PopUnless(Predicate woken) {
     std::unique_lock lock(mutex_);
-    not_empty_.wait(lock, [&] { return closed_ || !items_.empty(); });
+    not_empty_.wait(lock, [&] { return closed_ || !items_.empty() || woken(); });
     if (items_.empty()) return std::nullopt;
     T item = std::move(items_.front());
     items_.pop_front();
     not_full_.notify_one();
     return item;
+  }
+  // Makes a waiting PopUnless test its predicate again (set what it tests first).
+  void Wake() {
+    std::lock_guard lock(mutex_);
+    not_empty_.notify_all();
   }
   // Items already queued can still be taken; pushes fail from now on.
   void Close() {
@@ -87,7 +98,8 @@ class BoundedQueue {
 struct RuntimeOptions {
   // Live: the camera must never wait. When the pipeline falls behind, the oldest frame not
   // yet started is dropped (and counted), boxes 1-3 take the newest calibration there is,
-  // and each attempt is judged on the first frame after its solve ends. Offline: every
+  // and each attempt is judged as soon as its solve ends (on the boxes 4-9 thread, between
+  // frames if it is idle; the next frame's snapshot carries the verdict). Offline: every
   // frame is processed, and what each frame sees is fixed by frame counts, not by thread
   // timing, so that two runs give the same results.
   bool live = false;
@@ -195,12 +207,21 @@ class Runtime {
     int64_t frame = 0;  // Frames done by boxes 4-9 when it was made.
     Clock::time_point pushed;
   };
+  // An attempt judged, and what it took, for the snapshot of the frame it is judged on.
+  struct Judgement {
+    std::shared_ptr<const AttemptOutcome> attempt;
+    double solve_ms = 0.0;
+    double history_ms = 0.0;
+  };
 
   // The options for the frame pushed as `index`, if not those a thread applied last (the
   // change `*applied`, updated).
   std::optional<PipelineOptions> OptionsFor(int64_t index, int64_t* applied) const;
   void LensLoop();
   void MotionLoop();
+  // Takes box 10's result (waiting for it while `solve_lock`, held, is released), judges
+  // `pending` by it and puts the new calibration in effect. Nothing when stopping.
+  std::optional<Judgement> Judge(const Pending& pending, std::unique_lock<std::mutex>* solve_lock);
   void SolveLoop();
   CalibrationState StateFor(int64_t frame);
   void FeedAccel(int64_t t_ns);
@@ -244,6 +265,7 @@ class Runtime {
   std::optional<CalibrationJob> solve_job_;
   SelfCalibrationOptions solve_options_;  // Box 10's options for solve_job_.
   std::optional<SelfCalibrationResult> solve_result_;
+  std::atomic<bool> solved_{false};  // solve_result_ holds a result: live, wakes boxes 4-9.
   double solve_ms_ = 0.0;
 
   mutable std::mutex snapshot_mutex_;  // Held only to copy the pointer.

@@ -4,6 +4,8 @@
 #include <atomic>
 #include <cmath>
 #include <chrono>
+#include <condition_variable>
+#include <mutex>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -222,6 +224,74 @@ TEST(Runtime, LiveDropsFramesItCannotKeepUpWithAndStillCalibrates) {
   EXPECT_LT(std::abs(end.fx_percent), 0.5) << "fx within 0.5% of the truth";
   EXPECT_LT(std::abs(end.fy_percent), 0.5) << "fy within 0.5% of the truth";
   EXPECT_LT(std::abs(end.cx_px), 2.0) << "cx within 2 px";
+}
+
+// Live, a solve's calibration goes in effect the moment the solve ends, not at the next
+// frame (which at 30 frames a second is up to 33 ms and that frame's boxes 1-9 later).
+TEST(Runtime, LiveJudgesTheMomentTheSolveEnds) {
+  const std::unique_ptr<Sequence> sequence = Walk(4.0);
+  const CameraIntrinsics truth = sequence->ground_truth()->front().intrinsics;
+  AccelCalibration accel;
+  accel.cam_from_accel = sequence->session().cam_from_accel;
+  RuntimeOptions options;
+  options.live = true;
+  std::mutex gate_mutex;
+  std::condition_variable gate_changed;
+  bool open = false;
+  const auto open_gate = [&] {
+    {
+      std::lock_guard lock(gate_mutex);
+      open = true;
+    }
+    gate_changed.notify_all();
+  };
+  const Runtime::Solver stand_in = JitteredStandIn(truth, 0);
+  Runtime runtime(*sequence->session().premission_calibration, accel, {}, options, {},
+                  [&](const CalibrationJob& job) {
+                    std::unique_lock lock(gate_mutex);
+                    gate_changed.wait(lock, [&] { return open; });
+                    return stand_in(job);
+                  });
+  // A failed assertion leaves the test with the gate shut: the runtime could not stop.
+  const std::shared_ptr<void> open_at_exit(nullptr, [&](void*) { open_gate(); });
+  const std::vector<AccelSample>& samples = sequence->accel();
+  size_t fed = 0, pushed = 0;
+  // One frame, waiting until boxes 1-9 are done with it.
+  const auto push_one = [&] {
+    const int64_t t_ns = sequence->frame_time_ns(pushed);
+    const size_t first = fed;
+    while (fed < samples.size() && samples[fed].t_ns <= t_ns + runtime.accel_lead_ns()) ++fed;
+    runtime.PushAccel(std::span(samples).subspan(first, fed - first));
+    runtime.PushFrame(t_ns, sequence->LoadFrame(pushed++));
+    while (runtime.stats().frames_done < pushed) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  };
+  while (runtime.stats().solves == 0 && pushed < sequence->frame_count()) push_one();
+  // A few frames more while box 10 is held: nothing is judged without its result.
+  for (int more = 0; more < 5 && pushed + 1 < sequence->frame_count(); ++more) push_one();
+  RuntimeStats stats = runtime.stats();
+  ASSERT_EQ(stats.solves, 1);
+  EXPECT_EQ(stats.judged, 0);
+  ASSERT_LT(pushed, sequence->frame_count()) << "a frame left for after the verdict";
+
+  // No frame comes; the solve ends: the verdict is in within the time it takes to judge.
+  open_gate();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (runtime.stats().judged == 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  stats = runtime.stats();
+  EXPECT_EQ(stats.judged, 1) << "judged with no frame after the solve";
+  EXPECT_EQ(stats.frames_done, pushed);
+  // The next frame's snapshot carries the verdict.
+  EXPECT_FALSE(runtime.latest()->attempt);
+  push_one();
+  const std::shared_ptr<const AttemptOutcome> attempt = runtime.latest()->attempt;
+  ASSERT_TRUE(attempt);
+  runtime.Finish();
+  ASSERT_FALSE(runtime.history().attempts().empty());
+  EXPECT_EQ(attempt->record.reason, runtime.history().attempts().front().reason);
 }
 
 }  // namespace
