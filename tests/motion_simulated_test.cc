@@ -39,6 +39,9 @@ struct WalkRun {
   int wall_found = 0;
   int late = 0;  // Frames where floor or wall filled 20% but not yet for long.
   int late_found = 0;
+  // The shortest start-up after which the floor and the wall faced were found in every
+  // frame: the most frames either had filled 20% of the image in a frame missing it.
+  int startup_needed = 0;
   int id_pairs = 0;                       // (true plane, consecutive frames) both detected...
   int id_kept = 0;                        // ...where one id carries over.
   std::vector<double> normal_errors_deg;  // Of planes with a normal, against the truth.
@@ -177,6 +180,7 @@ WalkRun RunWalk(const std::string& scenario_name, const std::string& lens, doubl
     }
     for (int id : {floor_id, wall_faced}) {
       if (id == 0 || big_for[id] == 0) continue;
+      if (!found.count(id)) run.startup_needed = std::max(run.startup_needed, big_for[id]);
       if (big_for[id] <= kStartupFrames) {
         ++run.late;
         run.late_found += found.count(id);
@@ -212,12 +216,12 @@ WalkRun RunWalk(const std::string& scenario_name, const std::string& lens, doubl
   std::printf(
       "%s %s %s %s: %d frames, %.0f tracks, %.1f planes a frame; purity %.4f (%lld "
       "memberships); floor found %d/%d, wall faced found %d/%d (and %d/%d within the start-up "
-      "of filling 20%%); ids kept %d/%d (%.3f); normals %zu, median %.2f deg, 90%% %.2f deg; "
-      "ms/frame features %.2f flow %.2f planes %.2f\n",
+      "of filling 20%%, all found after %d); ids kept %d/%d (%.3f); normals %zu, median "
+      "%.2f deg, 90%% %.2f deg; ms/frame features %.2f flow %.2f planes %.2f\n",
       scenario_name.c_str(), lens.c_str(), resolution.c_str(), rectified ? "rectified" : "raw",
       run.frames, run.tracks, run.planes, run.Purity(), (long long)run.members, run.floor_found,
       run.big_floor_frames, run.wall_found, run.big_wall_frames, run.late_found, run.late,
-      run.id_kept, run.id_pairs, run.Stability(), run.normal_errors_deg.size(),
+      run.startup_needed, run.id_kept, run.id_pairs, run.Stability(), run.normal_errors_deg.size(),
       run.NormalQuantile(0.5), run.NormalQuantile(0.9), run.features_ms, run.flow_ms,
       run.planes_ms);
   return run;
