@@ -18,6 +18,7 @@
 #include "app/cli_util.h"
 #include "devices/offline_runner.h"
 #include "devices/sim/simulator.h"
+#include "devices/source.h"
 #include "pipeline/error.h"
 #include "pipeline/text_format.h"
 
@@ -152,6 +153,11 @@ int Bench(const QStringList& arguments) {
       {"stream",
        "Render frames as the pipeline asks for them instead of beforehand (rendering is then "
        "timed): for long sessions, with the resident size sampled every 10% of the run."},
+      {"live",
+       "Play the rendered frames as a live camera at the recording's frame rate (live mode: "
+       "frames the pipeline cannot take are dropped and counted, each attempt judged as its "
+       "solve ends): the update latency then counts from the moment the camera delivers the "
+       "frame, as on a vest."},
       {"loop",
        "Render only this many seconds and play them over and over for --seconds (each pass "
        "starts with a cut): a long session for memory, without the long rendering; the "
@@ -185,6 +191,10 @@ int Bench(const QStringList& arguments) {
     }
     if (parser.isSet("stream")) return UsageError(name, "--loop and --stream exclude each other", parser);
   }
+  const bool live = parser.isSet("live");
+  if (live && (parser.isSet("stream") || loop_seconds || parser.isSet("judge-after"))) {
+    return UsageError(name, "--live goes without --stream, --loop and --judge-after", parser);
+  }
 
   try {
     Scenario scenario = ParseScenarioSpec(parser.value("scenario").toStdString());
@@ -204,35 +214,47 @@ int Bench(const QStringList& arguments) {
       looped = std::make_unique<LoopedSequence>(
           *rendered, size_t(std::lround(double(rendered->frame_count()) * seconds / *loop_seconds)));
     }
-    const Sequence& sequence = stream   ? *simulated
-                               : looped ? static_cast<const Sequence&>(*looped)
-                                        : *rendered;
+    const double frames_mb = rendered ? rendered->megabytes() : 0.0;
 
     const QTemporaryDir dir;
     if (!dir.isValid()) throw Error("cannot make a temporary folder for the history");
     RunSettings settings;
     settings.history_path = dir.filePath("history.sqlite").toStdString();
     settings.runtime.judge_after_frames = judge_after;
+    ProgressPrinter printer("bench", "frames");
+    RunReport report;
     // Resident size at each tenth of the run, and after the first minute of recording.
     std::vector<std::pair<double, double>> rss;  // (recording s, MB)
     std::optional<double> rss_after_minute;
-    const int64_t first_ns = sequence.frame_count() ? sequence.frame_time_ns(0) : 0;
-    ProgressPrinter printer("bench", "frames");
-    const RunReport report = RunSequence(sequence, settings, [&](const RunProgress& progress) {
-      printer(progress.frame, progress.frames);
-      const double at_s = 1e-9 * double(progress.snapshot->t_ns - first_ns);
-      if (!rss_after_minute && at_s >= 60.0) rss_after_minute = StatusMegabytes("VmRSS");
-      if (progress.frame * 10 / progress.frames != (progress.frame - 1) * 10 / progress.frames) {
-        rss.emplace_back(at_s, StatusMegabytes("VmRSS"));
-      }
-    });
+    if (live) {
+      SourceOptions play;
+      play.real_time = true;
+      const std::unique_ptr<FrameSource> camera = PlaySequence(std::move(rendered), play);
+      LiveRunControl control;
+      control.progress = [&](const RunProgress& progress) {
+        printer(progress.frame, progress.frames);
+      };
+      report = RunSource(*camera, settings, control);
+    } else {
+      const Sequence& sequence = stream   ? *simulated
+                                 : looped ? static_cast<const Sequence&>(*looped)
+                                          : *rendered;
+      const int64_t first_ns = sequence.frame_count() ? sequence.frame_time_ns(0) : 0;
+      report = RunSequence(sequence, settings, [&](const RunProgress& progress) {
+        printer(progress.frame, progress.frames);
+        const double at_s = 1e-9 * double(progress.snapshot->t_ns - first_ns);
+        if (!rss_after_minute && at_s >= 60.0) rss_after_minute = StatusMegabytes("VmRSS");
+        if (progress.frame * 10 / progress.frames != (progress.frame - 1) * 10 / progress.frames) {
+          rss.emplace_back(at_s, StatusMegabytes("VmRSS"));
+        }
+      });
+    }
     const double peak_mb = StatusMegabytes("VmHWM");
-    const double frames_mb = rendered ? rendered->megabytes() : 0.0;
 
     const auto latency = report.timing.find("update_latency");
     const TimingStats update = latency == report.timing.end() ? TimingStats{} : latency->second;
 
-    std::printf("%s, %s, %.1f s of recording: %zu frames\n", sequence.Describe().c_str(),
+    std::printf("%s, %s, %.1f s of recording: %zu frames\n", report.input.c_str(),
                 parser.value("resolution").toUtf8().constData(), report.seconds, report.frames);
     std::printf("machine: %u cores, %s, load average %.2f\n", std::thread::hardware_concurrency(),
                 CpuModel().c_str(), LoadAverage());
@@ -243,7 +265,12 @@ int Bench(const QStringList& arguments) {
                   stats.count);
     }
     std::printf("end to end: %.1f frames/s (%.2f s wall)%s\n", report.fps, report.wall_seconds,
-                stream ? ", rendering included" : "");
+                stream ? ", rendering included" : live ? ", paced by the camera" : "");
+    if (report.live) {
+      std::printf("live: %llu frames delivered, %llu dropped\n",
+                  static_cast<unsigned long long>(report.live->frames_received),
+                  static_cast<unsigned long long>(report.live->frames_dropped()));
+    }
     std::printf("calibration updates: %d judged, latency median %.1f ms, p95 %.1f ms\n",
                 update.count, update.median_ms, update.p95_ms);
     std::printf("peak memory (VmHWM): %.1f MB, of which rendered frames %.1f MB\n", peak_mb,
@@ -263,6 +290,9 @@ int Bench(const QStringList& arguments) {
       json += "  \"wall_seconds\": " + JsonNumber(report.wall_seconds) + ",\n";
       json += "  \"fps\": " + JsonNumber(report.fps) + ",\n";
       json += "  \"judge_after_frames\": " + std::to_string(judge_after) + ",\n";
+      json += "  \"live\": " + std::string(live ? "true" : "false") + ",\n";
+      json += "  \"frames_dropped\": " +
+              std::to_string(report.live ? report.live->frames_dropped() : 0) + ",\n";
       json += "  \"rendering_timed\": " + std::string(stream ? "true" : "false") + ",\n";
       json += "  \"loop_seconds\": " + (loop_seconds ? JsonNumber(*loop_seconds) : "null") + ",\n";
       json += "  \"timing_ms\": {";

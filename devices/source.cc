@@ -696,6 +696,13 @@ std::unique_ptr<FrameSource> OpenSource(const std::string& input, const std::str
     sequence = std::make_unique<AccelOverrideSequence>(
         std::move(sequence), std::vector<AccelSample>{}, "none", std::vector<std::string>{});
   }
+  return PlaySequence(std::move(sequence), options);
+}
+
+std::unique_ptr<FrameSource> PlaySequence(std::unique_ptr<Sequence> sequence,
+                                          const SourceOptions& options) {
+  std::string why;
+  if (!options.Check(&why)) throw Error("source options: " + why);
   auto recorded = std::make_unique<SequenceSource>(std::move(sequence), options.read_ahead);
   if (options.real_time) return std::make_unique<PacedSource>(std::move(recorded), options);
   return recorded;

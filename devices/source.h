@@ -223,6 +223,11 @@ struct SourceOptions {
 std::unique_ptr<FrameSource> OpenSource(const std::string& input, const std::string& accel = "",
                                         const SourceOptions& options = {});
 
+// A sequence already opened, as a source: streamed, or paced in real time when
+// options.real_time is set (frames rendered beforehand then cost the pacing nothing).
+std::unique_ptr<FrameSource> PlaySequence(std::unique_ptr<Sequence> sequence,
+                                          const SourceOptions& options = {});
+
 // Merges two time-ordered streams that arrive with different delays into one ordered
 // stream. An item leaves once the other stream has reached its time (nothing earlier
 // can come from it), or once it has waited `window_ns`, or at once when the other
