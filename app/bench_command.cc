@@ -2,6 +2,7 @@
 // rendered into memory first so that rendering is not timed (or, with --stream, rendered
 // as the pipeline asks for it, for sessions too long to hold: then memory is the point).
 #include <cmath>
+#include <sys/resource.h>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -117,6 +118,14 @@ std::string CpuModel() {
   return "unknown";
 }
 
+// User and system CPU time of the whole process, every thread.
+double ProcessCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) { return double(t.tv_sec) + 1e-6 * double(t.tv_usec); };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
 double LoadAverage() {
   std::ifstream loadavg("/proc/loadavg");
   double one_minute = 0.0;
@@ -222,6 +231,7 @@ int Bench(const QStringList& arguments) {
     settings.history_path = dir.filePath("history.sqlite").toStdString();
     settings.runtime.judge_after_frames = judge_after;
     ProgressPrinter printer("bench", "frames");
+    const double cpu_before_s = ProcessCpuSeconds();
     RunReport report;
     // Resident size at each tenth of the run, and after the first minute of recording.
     std::vector<std::pair<double, double>> rss;  // (recording s, MB)
@@ -249,6 +259,8 @@ int Bench(const QStringList& arguments) {
         }
       });
     }
+    // Of both cores, how much the run kept busy: below 2, threads waited on each other.
+    const double cores_busy = (ProcessCpuSeconds() - cpu_before_s) / report.wall_seconds;
     const double peak_mb = StatusMegabytes("VmHWM");
 
     const auto latency = report.timing.find("update_latency");
@@ -266,6 +278,7 @@ int Bench(const QStringList& arguments) {
     }
     std::printf("end to end: %.1f frames/s (%.2f s wall)%s\n", report.fps, report.wall_seconds,
                 stream ? ", rendering included" : live ? ", paced by the camera" : "");
+    std::printf("cores busy: %.2f on average (CPU time over wall time)\n", cores_busy);
     if (report.live) {
       std::printf("live: %llu frames delivered, %llu dropped\n",
                   static_cast<unsigned long long>(report.live->frames_received),
@@ -289,6 +302,7 @@ int Bench(const QStringList& arguments) {
       json += "  \"seconds\": " + JsonNumber(report.seconds) + ",\n";
       json += "  \"wall_seconds\": " + JsonNumber(report.wall_seconds) + ",\n";
       json += "  \"fps\": " + JsonNumber(report.fps) + ",\n";
+      json += "  \"cores_busy\": " + JsonNumber(cores_busy) + ",\n";
       json += "  \"judge_after_frames\": " + std::to_string(judge_after) + ",\n";
       json += "  \"live\": " + std::string(live ? "true" : "false") + ",\n";
       json += "  \"frames_dropped\": " +
