@@ -176,41 +176,17 @@ TEST(PlumbLine, LinePointCostIsTheProjectionWithItsDerivatives) {
     std::array<double, kNumIntrinsics> intrinsics = camera.Packed();
     std::array<double, 2> line = {theta, rho};
     std::array<double, 1> position = {s};
-    double* parameters[] = {intrinsics.data(), line.data(), position.data()};
-    const std::array<int, 3> sizes = {kNumIntrinsics, 2, 1};
-    std::array<std::vector<double>, 3> jacobian;
-    double* jacobians[3];
-    for (int b = 0; b < 3; ++b) {
-      jacobian[b].resize(2 * sizes[b]);
-      jacobians[b] = jacobian[b].data();
-    }
     double residual[2];
-    ASSERT_TRUE(cost.Evaluate(parameters, residual, jacobians));
-    const Eigen::Vector2d point =
-        rho * Eigen::Vector2d(std::cos(theta), std::sin(theta)) +
-        s * Eigen::Vector2d(-std::sin(theta), std::cos(theta));
+    const double* parameters[] = {intrinsics.data(), line.data(), position.data()};
+    ASSERT_TRUE(cost.Evaluate(parameters, residual, nullptr));
+    const Eigen::Vector2d point = rho * Eigen::Vector2d(std::cos(theta), std::sin(theta)) +
+                                  s * Eigen::Vector2d(-std::sin(theta), std::cos(theta));
     const Eigen::Vector2d pixel = Project(camera, {point.x(), point.y(), 1.0});
     EXPECT_NEAR(residual[0], pixel.x() - observed.x(), 1e-9);
     EXPECT_NEAR(residual[1], pixel.y() - observed.y(), 1e-9);
-    for (int b = 0; b < 3; ++b) {
-      for (int c = 0; c < sizes[b]; ++c) {
-        double& x = parameters[b][c];
-        const double original = x, h = 1e-6 * std::max(1.0, std::abs(x));
-        double plus[2], minus[2];
-        x = original + h;
-        ASSERT_TRUE(cost.Evaluate(parameters, plus, nullptr));
-        x = original - h;
-        ASSERT_TRUE(cost.Evaluate(parameters, minus, nullptr));
-        x = original;
-        for (int r = 0; r < 2; ++r) {
-          const double numeric = (plus[r] - minus[r]) / (2 * h);
-          EXPECT_NEAR(jacobian[b][r * sizes[b] + c], numeric,
-                      1e-5 * std::max(1.0, std::abs(numeric)))
-              << "block " << b << " column " << c << " row " << r << ", line " << theta << " "
-              << rho << " at " << s;
-        }
-      }
-    }
+    EXPECT_TRUE(test::ExpectJacobianMatchesCentralDifferences(
+        cost, {intrinsics.data(), line.data(), position.data()},
+        "line " + std::to_string(theta) + " " + std::to_string(rho) + " at " + std::to_string(s)));
   }
 }
 

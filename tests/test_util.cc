@@ -1,5 +1,7 @@
 #include "tests/test_util.h"
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -54,6 +56,44 @@ CameraIntrinsics FromOpenCv(const cv::Mat& camera_matrix, const cv::Mat& distort
   c.p2 = distortion.at<double>(3);
   if (distortion.total() > 4) c.k3 = distortion.at<double>(4);
   return c;
+}
+
+bool ExpectJacobianMatchesCentralDifferences(const ceres::CostFunction& cost,
+                                             const std::vector<double*>& parameters,
+                                             const std::string& where) {
+  const std::vector<int32_t>& sizes = cost.parameter_block_sizes();
+  const int rows = cost.num_residuals();
+  std::vector<std::vector<double>> jacobian(sizes.size());
+  std::vector<double*> jacobians(sizes.size());
+  for (size_t b = 0; b < sizes.size(); ++b) {
+    jacobian[b].resize(size_t(rows * sizes[b]));
+    jacobians[b] = jacobian[b].data();
+  }
+  const size_t count = size_t(rows);
+  std::vector<double> residual(count), plus(count), minus(count);
+  if (!cost.Evaluate(parameters.data(), residual.data(), jacobians.data())) return false;
+  for (size_t b = 0; b < sizes.size(); ++b) {
+    for (int c = 0; c < sizes[b]; ++c) {
+      double& x = parameters[b][c];
+      const double original = x, h = 1e-6 * std::max(1.0, std::abs(x));
+      x = original + h;
+      const bool plus_ok = cost.Evaluate(parameters.data(), plus.data(), nullptr);
+      x = original - h;
+      const bool minus_ok = cost.Evaluate(parameters.data(), minus.data(), nullptr);
+      x = original;
+      if (!plus_ok || !minus_ok) {
+        ADD_FAILURE() << "cannot be evaluated a step from the point, " << where;
+        continue;
+      }
+      for (int r = 0; r < rows; ++r) {
+        const double numeric = (plus[r] - minus[r]) / (2 * h);
+        EXPECT_NEAR(jacobian[b][size_t(r * sizes[b] + c)], numeric,
+                    1e-5 * std::max(1.0, std::abs(numeric)))
+            << "block " << b << " column " << c << " row " << r << ", " << where;
+      }
+    }
+  }
+  return true;
 }
 
 void WriteTextFile(const std::filesystem::path& path, const std::string& contents) {

@@ -3,6 +3,9 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
+
+#include <ceres/cost_function.h>
 
 #include <opencv2/core.hpp>
 
@@ -33,6 +36,14 @@ CameraIntrinsics SonnarLikeCamera(double k1 = -0.3, double k2 = 0.1);
 // returns them, for an image of `size`.
 CameraIntrinsics FromOpenCv(const cv::Mat& camera_matrix, const cv::Mat& distortion,
                             cv::Size size);
+
+// Checks every column of the Jacobian `cost` gives at `parameters` against central
+// differences of its residual (within 1e-5, relative beyond 1), naming `where` in
+// failures. False, with nothing checked, where the cost cannot be evaluated there.
+// (Ceres' GradientChecker gave garbage numeric columns for our costs.)
+bool ExpectJacobianMatchesCentralDifferences(const ceres::CostFunction& cost,
+                                             const std::vector<double*>& parameters,
+                                             const std::string& where);
 
 // Writes `contents` to `path`, creating parent folders.
 void WriteTextFile(const std::filesystem::path& path, const std::string& contents);
