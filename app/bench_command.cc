@@ -1,8 +1,9 @@
 // `autocal bench`: the whole pipeline on a simulated recording, timed. The recording is
 // rendered into memory first so that rendering is not timed (or, with --stream, rendered
 // as the pipeline asks for it, for sessions too long to hold: then memory is the point).
-#include <cmath>
 #include <sys/resource.h>
+
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <memory>

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `autocal bench` (issue #6): the whole pipeline timed on a simulated recording, its figures
 # printed and written as JSON; --loop plays a short rendering over and over for a long
-# session's memory; bad arguments are refused with the reason.
+# session's memory; --live plays the frames as a camera in real time; bad arguments are
+# refused with the reason.
 set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
@@ -27,6 +28,24 @@ awk -v s="$(field seconds "$dir/loop.json")" 'BEGIN { exit !(s > 3.9 && s < 4.1)
 [[ $(field loop_seconds "$dir/loop.json") == 1 ]] || fail "loop_seconds in the JSON"
 [[ $(grep -o '"mb":' "$dir/loop.json" | wc -l) -ge 9 ]] || fail "resident size sampled every 10%"
 grep -q "looped" "$dir/loop.txt" || fail "the report says the recording was looped"
+
+# Played as a 30 fps camera: paced, not as fast as it can; every frame processed or counted
+# as dropped; attempts judged, their latency timed from the camera's delivery.
+"$autocal" bench --scenario office --resolution 160x120 --seconds 5 --live \
+  --json "$dir/live.json" >"$dir/live.txt" 2>/dev/null
+grep -q '"live": true' "$dir/live.json" || fail "live in the JSON: $(cat "$dir/live.json")"
+awk -v s="$(field wall_seconds "$dir/live.json")" 'BEGIN { exit !(s > 4.8) }' ||
+  fail "5 s at 30 fps take 5 s when paced: $(field wall_seconds "$dir/live.json") s"
+[[ $(( $(field frames "$dir/live.json") + $(field frames_dropped "$dir/live.json") )) == 150 ]] ||
+  fail "150 frames processed or dropped: $(cat "$dir/live.json")"
+grep -qE '"update_latency_ms": \{"median": [0-9.]+, "p95": [0-9.]+, "count": [1-9]' "$dir/live.json" ||
+  fail "live attempts judged and timed: $(grep update_latency "$dir/live.json")"
+awk -v c="$(field cores_busy "$dir/live.json")" 'BEGIN { exit !(c > 0) }' || fail "cores busy"
+grep -q "paced by the camera" "$dir/live.txt" || fail "the report says the run was paced"
+if "$autocal" bench --seconds 2 --loop 1 --live >/dev/null 2>"$dir/err.txt"; then
+  fail "--live with --loop was accepted"
+fi
+grep -q -- "--live" "$dir/err.txt" || fail "the refusal names --live: $(cat "$dir/err.txt")"
 
 if "$autocal" bench --seconds 2 --loop 5 >/dev/null 2>"$dir/err.txt"; then
   fail "a loop longer than the session was accepted"
