@@ -317,6 +317,9 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
     }
     source.Stop();
     runtime->Finish();
+    // Live, an attempt whose solve ends after the last frame is judged with no snapshot to
+    // carry it: the file gets it here.
+    if (store) store->Record(runtime->history());
     report_progress();
 
     const SourceStats stats = source.stats();
