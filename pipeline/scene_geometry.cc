@@ -11,7 +11,7 @@ namespace {
 ScenePolygon WithinOutline(const VirtualBoard& board, const std::array<Eigen::Vector2d, 4>& quad) {
   ScenePolygon polygon;
   for (const Eigen::Vector2d& p : CutToOutline(board, {quad.begin(), quad.end()})) {
-    polygon.push_back(board.world_from_plane * Eigen::Vector3d(p.x(), p.y(), 0.0));
+    polygon.push_back(board.InWorld(p));
   }
   return polygon;
 }
@@ -36,9 +36,7 @@ std::optional<SceneGeometry> MakeSceneGeometry(const AttemptOutcome& attempt,
   for (const VirtualBoard& board : attempt.boards) {
     SceneBoard drawn;
     drawn.plane_id = board.plane_id;
-    auto corner = [&](int i, int j) -> Eigen::Vector2d {
-      return board.origin + board.square * Eigen::Vector2d(i, j);
-    };
+    const auto corner = [&](int i, int j) { return board.OnPlane(i, j); };
     const std::array<Eigen::Vector2d, 4> grown = {corner(-1, -1), corner(board.squares_x + 1, -1),
                                                   corner(board.squares_x + 1, board.squares_y + 1),
                                                   corner(-1, board.squares_y + 1)};
@@ -46,7 +44,7 @@ std::optional<SceneGeometry> MakeSceneGeometry(const AttemptOutcome& attempt,
                                                   corner(board.squares_x, board.squares_y),
                                                   corner(0, board.squares_y)};
     for (size_t k = 0; k < 4; ++k) {
-      drawn.plane[k] = board.world_from_plane * Eigen::Vector3d(grown[k].x(), grown[k].y(), 0.0);
+      drawn.plane[k] = board.InWorld(grown[k]);
       ScenePolygon piece =
           WithinOutline(board, {grown[k], grown[(k + 1) % 4], inner[(k + 1) % 4], inner[k]});
       if (!piece.empty()) drawn.border.push_back(std::move(piece));

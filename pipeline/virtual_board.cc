@@ -28,11 +28,6 @@ bool VirtualBoardOptions::Check(std::string* error) const {
   return false;
 }
 
-Eigen::Vector3d VirtualBoard::Corner(int i, int j) const {
-  const Eigen::Vector2d uv = origin + square * Eigen::Vector2d(i, j);
-  return world_from_plane * Eigen::Vector3d(uv.x(), uv.y(), 0.0);
-}
-
 VirtualBoard AttachBoard(int plane_id, const Eigen::Isometry3d& world_from_plane,
                          const std::vector<Eigen::Vector2d>& tracked_points,
                          const VirtualBoardOptions& options) {
@@ -171,9 +166,6 @@ BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d&
   BoardProjection projection;
   const Eigen::Isometry3d cam_from_plane = cam_from_world * board.world_from_plane;
   const double field_radius2 = DrawableFieldRadius2(camera);
-  const auto on_plane = [&](double i, double j) -> Eigen::Vector2d {
-    return board.origin + board.square * Eigen::Vector2d(i, j);
-  };
   auto image_of = [&](const Eigen::Vector2d& uv, Eigen::Vector2d* pixel) {
     const Eigen::Vector3d cam = cam_from_plane * Eigen::Vector3d(uv.x(), uv.y(), 0.0);
     if (cam.z() <= 1e-6) return false;
@@ -189,8 +181,9 @@ BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d&
     const int across = direction == 0 ? board.squares_x : board.squares_y;
     const int along = direction == 0 ? board.squares_y : board.squares_x;
     for (int a = 0; a <= across; ++a) {
-      const Eigen::Vector2d start = direction == 0 ? on_plane(a, 0) : on_plane(0, a);
-      const Eigen::Vector2d end = direction == 0 ? on_plane(a, along) : on_plane(along, a);
+      const Eigen::Vector2d start = direction == 0 ? board.OnPlane(a, 0) : board.OnPlane(0, a);
+      const Eigen::Vector2d end =
+          direction == 0 ? board.OnPlane(a, along) : board.OnPlane(along, a);
       double first = 0.0, last = 1.0;
       if (!board.outline.empty() && !ClipToConvex(start, end, board.outline, &first, &last)) {
         continue;
@@ -217,7 +210,7 @@ BoardProjection ProjectBoard(const VirtualBoard& board, const Eigen::Isometry3d&
   for (int j = 0; j <= board.squares_y; ++j) {
     for (int i = 0; i <= board.squares_x; ++i) {
       Eigen::Vector2d pixel;
-      if (image_of(on_plane(i, j), &pixel)) projection.corners.push_back(pixel);
+      if (image_of(board.OnPlane(i, j), &pixel)) projection.corners.push_back(pixel);
     }
   }
   return projection;

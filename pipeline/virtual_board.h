@@ -47,8 +47,17 @@ struct VirtualBoard {
   // plane was seen. Empty: the whole rectangle.
   std::vector<Eigen::Vector2d> outline;
 
+  // Grid point (i, j) in plane coordinates, in squares from the origin (fractions and
+  // points beyond the board allowed).
+  Eigen::Vector2d OnPlane(double i, double j) const {
+    return origin + square * Eigen::Vector2d(i, j);
+  }
+  // A point in plane coordinates, in the world.
+  Eigen::Vector3d InWorld(const Eigen::Vector2d& uv) const {
+    return world_from_plane * Eigen::Vector3d(uv.x(), uv.y(), 0.0);
+  }
   // Corner (i, j), 0 <= i <= squares_x, 0 <= j <= squares_y, in the world.
-  Eigen::Vector3d Corner(int i, int j) const;
+  Eigen::Vector3d Corner(int i, int j) const { return InWorld(OnPlane(i, j)); }
 };
 
 // A board over the tracked area of a plane: its origin on the first tracked point, its
