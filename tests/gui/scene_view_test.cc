@@ -117,14 +117,6 @@ void SceneViewTest::drawsTheNewestAttemptsScene() {
   QVERIFY(!image.isNull());
   QVERIFY(image.save(ScreenshotPath("scene_view.png")));
 
-  // The frustum's four edges and its far rectangle, at their midpoints.
-  const auto& f = scene.frustum;
-  for (int k = 1; k <= 4; ++k) {
-    const Eigen::Vector3d edge = (f[0] + f[size_t(k)]) / 2.0;
-    QVERIFY2(ColorNear(image, view.worldToImage(edge), SceneFrustumColor()), qPrintable(QString::number(k)));
-    const Eigen::Vector3d side = (f[size_t(k)] + f[size_t(k % 4 + 1)]) / 2.0;
-    QVERIFY2(ColorNear(image, view.worldToImage(side), SceneFrustumColor()), qPrintable(QString::number(k)));
-  }
   // The trajectory between its views.
   int on_trajectory = 0;
   for (size_t i = 0; i + 1 < scene.trajectory.size(); ++i) {
@@ -148,11 +140,35 @@ void SceneViewTest::drawsTheNewestAttemptsScene() {
     }
   }
   QVERIFY2(seen * 2 > squares, qPrintable(QString("%1 of %2").arg(seen).arg(squares)));
+
+  // The camera's own glyphs on the same attempt without its boards: seen from above and
+  // behind the camera, a board the camera looks along can stand in front of them.
+  auto bare_attempt = std::make_shared<AttemptOutcome>(*newest->attempt);
+  bare_attempt->boards.clear();
+  auto bare = std::make_shared<FrameSnapshot>(*newest);
+  bare->attempt = bare_attempt;
+  view.showSnapshot(bare);
+  QVERIFY(view.scene() && view.scene()->boards.empty());
+  const SceneGeometry& glyphs = *view.scene();
+  view.resetCamera();
+  QTest::qWait(50);
+  const QImage camera_image = view.grab3d();
+  QVERIFY(camera_image.save(ScreenshotPath("scene_view_camera.png")));
+  // The frustum's four edges and its far rectangle, at their midpoints.
+  const auto& f = glyphs.frustum;
+  for (int k = 1; k <= 4; ++k) {
+    const Eigen::Vector3d edge = (f[0] + f[size_t(k)]) / 2.0;
+    QVERIFY2(ColorNear(camera_image, view.worldToImage(edge), SceneFrustumColor()),
+             qPrintable(QString::number(k)));
+    const Eigen::Vector3d side = (f[size_t(k)] + f[size_t(k % 4 + 1)]) / 2.0;
+    QVERIFY2(ColorNear(camera_image, view.worldToImage(side), SceneFrustumColor()),
+             qPrintable(QString::number(k)));
+  }
   // Gravity: the arrow from the camera, pointing down the screen (the view's up is up).
-  QVERIFY(scene.gravity);
-  const Eigen::Vector3d mid = f[0] + 0.5 * scene.frustum_depth * *scene.gravity;
-  QVERIFY(ColorNear(image, view.worldToImage(mid), SceneGravityColor()));
-  const Eigen::Vector3d tip = f[0] + scene.frustum_depth * *scene.gravity;
+  QVERIFY(glyphs.gravity);
+  const Eigen::Vector3d mid = f[0] + 0.5 * glyphs.frustum_depth * *glyphs.gravity;
+  QVERIFY(ColorNear(camera_image, view.worldToImage(mid), SceneGravityColor()));
+  const Eigen::Vector3d tip = f[0] + glyphs.frustum_depth * *glyphs.gravity;
   QVERIFY(view.worldToImage(tip).y() > view.worldToImage(f[0]).y() + 10);
 
   view.clear();
