@@ -141,7 +141,7 @@ struct FrameLog {
     double frame_ms = 0.0;
     for (const auto& [box, ms] : snapshot.timing.Named()) {
       if (ms > 0.0) times[box].push_back(ms);
-      if (box != "calibration") frame_ms += ms;
+      if (box != "calibration" && box != "distortion") frame_ms += ms;  // On workers.
     }
     times["frame"].push_back(frame_ms);
     t_ns.push_back(snapshot.t_ns);

@@ -46,6 +46,8 @@ bool LensOptions::Check(std::string* error) const {
     why = "pool_per_cell must be at least 1";
   } else if (estimate_every_frames < 1) {
     why = "estimate_every_frames must be at least 1";
+  } else if (estimate_lag_frames < 0 || estimate_lag_frames >= estimate_every_frames) {
+    why = "estimate_lag_frames must be in [0, estimate_every_frames)";
   } else if (estimate_per_cell < 1) {
     why = "estimate_per_cell must be at least 1";
   }
@@ -142,13 +144,22 @@ LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,
   snapshot.lines_ms = MillisecondsSince(start);
 
   ++frames_;
-  if (frames_ % options_.estimate_every_frames == 0) {
-    start = std::chrono::steady_clock::now();
-    const std::vector<LineObservation> newest = NewestShapes(options_.estimate_per_cell);
+  if (frames_ % options_.estimate_every_frames == 0 && !estimating_.valid()) {
+    std::vector<LineObservation> newest = NewestShapes(options_.estimate_per_cell);
     if (int(newest.size()) >= options_.plumb_line.min_lines) {
-      latest_ = EstimateDistortion(newest, calibration, options_.plumb_line);
-      snapshot.distortion_ms = MillisecondsSince(start);
+      estimating_ = std::async(std::launch::async, [shapes = std::move(newest), calibration,
+                                                    plumb_line = options_.plumb_line] {
+        const auto begun = std::chrono::steady_clock::now();
+        PlumbLineResult result = EstimateDistortion(shapes, calibration, plumb_line);
+        return TimedEstimate{std::move(result), MillisecondsSince(begun)};
+      });
+      estimate_due_ = frames_ + options_.estimate_lag_frames;
     }
+  }
+  if (estimating_.valid() && frames_ >= estimate_due_) {
+    TimedEstimate estimate = estimating_.get();
+    latest_ = std::move(estimate.result);
+    snapshot.distortion_ms = estimate.ms;
   }
   snapshot.distortion = latest_;
   snapshot.pooled_shapes = static_cast<int>(pooled_shapes());

@@ -86,6 +86,10 @@ std::vector<OptionField> MakeFields() {
       Field<int>("lens.estimate_every_frames", 1, 10000,
                  "frames between two plumb-line distortion estimates", &P::lens,
                  &L::estimate_every_frames),
+      Field<int>("lens.estimate_lag_frames", 0, 10000,
+                 "frames after it is begun that box 2's estimate, made on its own thread, "
+                 "takes effect",
+                 &P::lens, &L::estimate_lag_frames),
       Field<int>("lens.estimate_per_cell", 1, 1000,
                  "box 2's estimate takes the newest this many shapes per cell and orientation",
                  &P::lens, &L::estimate_per_cell),

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdio>
 #include <future>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -48,6 +49,7 @@ LensRun RunOffice(const std::string& lens, double seconds) {
 
   LensOptions options;
   options.estimate_every_frames = int(sequence->frame_count());  // One, on the last frame.
+  options.estimate_lag_frames = 0;
   options.estimate_per_cell = 4;
   LensStage stage(options);
   // Render the next frame on the other core while this one is processed.
@@ -102,6 +104,43 @@ LensRun RunOffice(const std::string& lens, double seconds) {
       lens.c_str(), run.estimate.message.c_str(), run.snakes_checked, run.worst_vertex_px,
       run.vertices_near_border, run.worst_near_border_px, run.worst_end_px, run.snakes_off_lines);
   return run;
+}
+
+// Box 2 runs on a worker of its own: its periodic estimate takes effect
+// estimate_lag_frames after it was begun, and is the estimate it would have been inline.
+TEST(LensSimulated, PeriodicEstimateTakesEffectItsLagLater) {
+  const auto sequence =
+      MakeSimulatedSequence(ParseScenarioSpec("office,lens=sonnar,resolution=320x240,seconds=4"));
+  CameraIntrinsics start = sequence->ground_truth()->front().intrinsics;
+  start.k1 = start.k2 = start.p1 = start.p2 = start.k3 = 0.0;
+  struct Effect {
+    size_t frame;
+    PlumbLineResult estimate;
+  };
+  auto run = [&](int lag) {
+    LensOptions options;
+    options.estimate_lag_frames = lag;
+    LensStage stage(options);
+    std::vector<Effect> effects;
+    for (size_t i = 0; i < sequence->frame_count(); ++i) {
+      const LensSnapshot snapshot =
+          stage.Process(sequence->frame_time_ns(i), sequence->LoadFrame(i), start);
+      EXPECT_EQ(snapshot.distortion.has_value(), !effects.empty() || snapshot.distortion_ms > 0)
+          << "frame " << i << ": an estimate shows from the frame it takes effect on";
+      if (snapshot.distortion_ms > 0) effects.push_back({i, *snapshot.distortion});
+    }
+    return effects;
+  };
+  const std::vector<Effect> inline_effects = run(0), lagged = run(5);
+  ASSERT_GE(inline_effects.size(), 3u);
+  ASSERT_EQ(lagged.size(), inline_effects.size() - 1) << "the last one begun still running";
+  for (size_t k = 0; k < lagged.size(); ++k) {
+    EXPECT_EQ(inline_effects[k].frame % LensOptions{}.estimate_every_frames,
+              size_t(LensOptions{}.estimate_every_frames - 1));
+    EXPECT_EQ(lagged[k].frame, inline_effects[k].frame + 5);
+    EXPECT_EQ(lagged[k].estimate.estimate.k1, inline_effects[k].estimate.estimate.k1);
+    EXPECT_EQ(lagged[k].estimate.estimate.k2, inline_effects[k].estimate.estimate.k2);
+  }
 }
 
 TEST(LensSimulated, SonnarDistortionFromTenSecondsOfOffice) {

@@ -212,8 +212,9 @@ void SceneView::resetCamera() {
   const Eigen::Vector3d position = focus - look;
   view->SetPosition(position.x(), position.y(), position.z());
   view->SetViewUp(-down.x(), -down.y(), -down.z());
-  vtk_->renderer->ResetCamera();  // Keeps the direction, fits the distance.
-  view->Zoom(1.4);                // ResetCamera fits a bounding sphere: room to spare.
+  // Keeps the direction and fits the distance to the bounding sphere, so everything is in
+  // view (zooming in past it cut the frustum off when the trajectory set the sphere).
+  vtk_->renderer->ResetCamera();
   vtk_->window->Render();
 }
 
