@@ -362,16 +362,21 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     for (const auto& [frame, x] : seen) ++seen_in[frame];
   }
   const auto sees_most = [&](const auto& eligible) {
-    int best = -1;
+    int best = -1, best_count = 0;
     for (const auto& [frame, count] : seen_in) {
-      if (eligible(frame) && (best < 0 || count > seen_in[best])) best = frame;
+      if (eligible(frame) && count > best_count) {
+        best = frame;
+        best_count = count;
+      }
     }
     return best;
   };
   const int cold_reference = sees_most([](int) { return true; });
-  const int warm_reference = !warm ? -1 : sees_most([&](int frame) {
-    return size_t(frame) < material.start->cam_from_world.size() &&
-           material.start->cam_from_world[frame].has_value();
+  // A start made for views other than this window's (their count differs) is none.
+  const bool start_fits =
+      warm && material.start->cam_from_world.size() == size_t(material.frame_count);
+  const int warm_reference = !start_fits ? -1 : sees_most([&](int frame) {
+    return material.start->cam_from_world[frame].has_value();
   });
 
   // The initial structure: the earlier solution where there is one (fewer iterations, as
