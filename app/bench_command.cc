@@ -22,6 +22,7 @@
 #include "devices/sim/simulator.h"
 #include "devices/source.h"
 #include "pipeline/error.h"
+#include "pipeline/option_fields.h"
 #include "pipeline/text_format.h"
 
 namespace autocal::cli {
@@ -174,6 +175,7 @@ int Bench(const QStringList& arguments) {
        "resident size is sampled every 10% of the run.",
        "s"},
   });
+  AddPipelineSettingsOptions(parser);
   if (const auto code = Parse(parser, name, arguments)) return *code;
   bool seconds_ok = false;
   const double seconds = parser.value("seconds").toDouble(&seconds_ok);
@@ -207,6 +209,7 @@ int Bench(const QStringList& arguments) {
   }
 
   try {
+    const PipelineOptions pipeline = PipelineOptionsFrom(parser);  // Before the long rendering.
     Scenario scenario = ParseScenarioSpec(parser.value("scenario").toStdString());
     ApplyScenarioOverride(&scenario, "resolution", parser.value("resolution").toStdString());
     ApplyScenarioOverride(&scenario, "seconds",
@@ -229,6 +232,7 @@ int Bench(const QStringList& arguments) {
     const QTemporaryDir dir;
     if (!dir.isValid()) throw Error("cannot make a temporary folder for the history");
     RunSettings settings;
+    settings.pipeline = pipeline;
     settings.history_path = dir.filePath("history.sqlite").toStdString();
     settings.runtime.judge_after_frames = judge_after;
     ProgressPrinter printer("bench", "frames");
@@ -271,6 +275,12 @@ int Bench(const QStringList& arguments) {
                 parser.value("resolution").toUtf8().constData(), report.seconds, report.frames);
     std::printf("machine: %u cores, %s, load average %.2f\n", std::thread::hardware_concurrency(),
                 CpuModel().c_str(), LoadAverage());
+    const auto changed = ChangedPipelineOptions(pipeline);
+    std::string changed_text;
+    for (const auto& [option, value] : changed) {
+      changed_text += (changed_text.empty() ? "" : ", ") + option + " = " + value;
+    }
+    std::printf("settings: %s\n", changed.empty() ? "the defaults" : changed_text.c_str());
     std::printf("%-16s %10s %10s %8s\n", "box", "median ms", "p95 ms", "frames");
     for (const auto& [box, stats] : report.timing) {
       if (box == "update_latency") continue;
@@ -305,6 +315,12 @@ int Bench(const QStringList& arguments) {
       json += "  \"fps\": " + JsonNumber(report.fps) + ",\n";
       json += "  \"cores_busy\": " + JsonNumber(cores_busy) + ",\n";
       json += "  \"judge_after_frames\": " + std::to_string(judge_after) + ",\n";
+      json += "  \"settings\": {";
+      for (size_t i = 0; i < changed.size(); ++i) {
+        json += std::string(i ? ", " : "") + JsonString(changed[i].first) + ": " +
+                JsonString(changed[i].second);
+      }
+      json += "},\n";
       json += "  \"live\": " + std::string(live ? "true" : "false") + ",\n";
       json += "  \"frames_dropped\": " +
               std::to_string(report.live ? report.live->frames_dropped() : 0) + ",\n";

@@ -4,6 +4,9 @@
 
 #include <cstdio>
 
+#include "pipeline/error.h"
+#include "pipeline/option_fields.h"
+
 namespace autocal::cli {
 
 std::optional<int> Parse(QCommandLineParser& parser, const QString& name,
@@ -25,6 +28,30 @@ int UsageError(const QString& name, const QString& message, const QCommandLinePa
   std::fprintf(stderr, "autocal %s: %s\n\n%s", qPrintable(name), qPrintable(message),
                qPrintable(parser.helpText()));
   return 2;
+}
+
+void AddPipelineSettingsOptions(QCommandLineParser& parser) {
+  parser.addOptions({
+      {"settings", "Pipeline settings file (name = value lines; see autocal run --print-settings).",
+       "file"},
+      {"set",
+       "One pipeline option, e.g. --set material.window_s=3 (repeatable; after --settings).",
+       "name=value"},
+  });
+}
+
+PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser) {
+  PipelineOptions options;
+  if (parser.isSet("settings")) options = ReadPipelineSettings(parser.value("settings").toStdString());
+  for (const QString& assignment : parser.values("set")) {
+    const qsizetype equals = assignment.indexOf('=');
+    if (equals <= 0) throw Error("--set takes name=value, got " + assignment.toStdString());
+    SetPipelineOption(&options, assignment.left(equals).toStdString(),
+                      assignment.mid(equals + 1).toStdString());
+  }
+  std::string why;
+  if (!options.Check(&why)) throw Error("pipeline options: " + why);
+  return options;
 }
 
 ProgressPrinter::ProgressPrinter(const char* what, const char* unit)

@@ -10,6 +10,8 @@
 #include <QString>
 #include <QStringList>
 
+#include "pipeline/calibration_pipeline.h"
+
 namespace autocal::cli {
 
 // Parses `arguments` for subcommand `name`; prints help or the usage error itself.
@@ -19,6 +21,13 @@ std::optional<int> Parse(QCommandLineParser& parser, const QString& name,
 
 // Prints `message` and the help; returns the bad-usage exit code, 2.
 int UsageError(const QString& name, const QString& message, const QCommandLineParser& parser);
+
+// The options --settings (a pipeline settings file) and --set (one option, repeatable).
+void AddPipelineSettingsOptions(QCommandLineParser& parser);
+
+// Pipeline options from --settings, then each --set in order, checked. Throws Error naming
+// the file and line, or the option, at fault.
+PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser);
 
 // Progress on stderr: one line rewritten in place on a terminal, a line per 10% elsewhere.
 class ProgressPrinter {

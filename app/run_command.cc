@@ -164,9 +164,6 @@ int Run(const QStringList& arguments) {
            ".",
        "name"},
       {"accel-offset", "Seconds added to accelerometer timestamps (default 0).", "s", "0"},
-      {"settings", "Pipeline settings file (name = value lines; see --print-settings).", "file"},
-      {"set", "One pipeline option, e.g. --set material.window_s=3 (repeatable; after --settings).",
-       "name=value"},
       {"print-settings", "Print every pipeline option with its value and meaning, and exit."},
       {"truncate-at-fault", "Keep a recording up to its first fault instead of refusing it."},
       {"stills",
@@ -174,6 +171,7 @@ int Run(const QStringList& arguments) {
        "folder of photographs, at least 3): calibrated together from the planes their "
        "keypoints share, not as a video. Without --prior, from a 75 degree field of view."},
   });
+  AddPipelineSettingsOptions(parser);
   if (const auto code = Parse(parser, name, arguments)) return *code;
   if (!parser.isSet("input") && !parser.isSet("print-settings")) {
     return UsageError(name, "--input is required", parser);
@@ -209,17 +207,7 @@ int Run(const QStringList& arguments) {
   }
 
   try {
-    if (parser.isSet("settings")) {
-      settings.pipeline = ReadPipelineSettings(parser.value("settings").toStdString());
-    }
-    for (const QString& assignment : parser.values("set")) {
-      const int equals = assignment.indexOf('=');
-      if (equals <= 0) return UsageError(name, "--set takes name=value, got " + assignment, parser);
-      SetPipelineOption(&settings.pipeline, assignment.left(equals).toStdString(),
-                        assignment.mid(equals + 1).toStdString());
-    }
-    std::string why;
-    if (!settings.pipeline.Check(&why)) throw Error("pipeline options: " + why);
+    settings.pipeline = PipelineOptionsFrom(parser);
     if (parser.isSet("print-settings")) {
       std::printf("%s", PipelineSettingsText(settings.pipeline).c_str());
       return 0;

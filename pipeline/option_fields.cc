@@ -540,6 +540,12 @@ std::string Trim(const std::string& text) {
   return text.substr(first, text.find_last_not_of(" \t\r") - first + 1);
 }
 
+std::string ValueText(const OptionField& field, const PipelineOptions& options) {
+  const double value = field.get(options);
+  if (field.kind == OptionField::Kind::kFlag) return value != 0 ? "true" : "false";
+  return ShortestDecimal(value);
+}
+
 }  // namespace
 
 const std::vector<OptionField>& PipelineOptionFields() {
@@ -620,13 +626,21 @@ std::string PipelineSettingsText(const PipelineOptions& options) {
     if (field_group != group) text << "\n";
     group = field_group;
     text << "# " << field.help << "\n";
-    const double value = field.get(options);
-    text << field.name << " = "
-         << (field.kind == OptionField::Kind::kFlag ? (value != 0 ? "true" : "false")
-                                                    : ShortestDecimal(value))
-         << "\n";
+    text << field.name << " = " << ValueText(field, options) << "\n";
   }
   return text.str();
+}
+
+std::vector<std::pair<std::string, std::string>> ChangedPipelineOptions(
+    const PipelineOptions& options) {
+  const PipelineOptions defaults;
+  std::vector<std::pair<std::string, std::string>> changed;
+  for (const OptionField& field : PipelineOptionFields()) {
+    if (field.get(options) != field.get(defaults)) {
+      changed.emplace_back(field.name, ValueText(field, options));
+    }
+  }
+  return changed;
 }
 
 }  // namespace autocal

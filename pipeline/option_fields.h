@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pipeline/calibration_pipeline.h"
@@ -35,5 +36,10 @@ void SetPipelineOption(PipelineOptions* options, const std::string& name, const 
 PipelineOptions ReadPipelineSettings(const std::string& path, const PipelineOptions& base = {});
 // Every field, with its explanation as a comment, so that the file documents itself.
 std::string PipelineSettingsText(const PipelineOptions& options);
+
+// The fields of `options` that differ from the defaults: (name, value as in a settings
+// file), in the order of PipelineOptionFields().
+std::vector<std::pair<std::string, std::string>> ChangedPipelineOptions(
+    const PipelineOptions& options);
 
 }  // namespace autocal

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # `autocal bench` (issue #6): the whole pipeline timed on a simulated recording, its figures
 # printed and written as JSON; --loop plays a short rendering over and over for a long
-# session's memory; --live plays the frames as a camera in real time; bad arguments are
-# refused with the reason.
+# session's memory; --live plays the frames as a camera in real time; --settings and --set
+# change the pipeline's options, reported with the figures; bad arguments are refused with
+# the reason.
 set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
@@ -18,6 +19,26 @@ for box in lines flow planes frame; do
   grep -qE "^$box +[0-9.]+ +[0-9.]+ +60$" "$dir/plain.txt" || fail "no timing of $box printed"
 done
 awk -v fps="$(field fps "$dir/plain.json")" 'BEGIN { exit !(fps > 0) }' || fail "no frame rate"
+grep -q '^settings: the defaults$' "$dir/plain.txt" || fail "the defaults not reported"
+grep -q '"settings": {}' "$dir/plain.json" || fail "no settings changed in the JSON"
+
+# Box 10 tried twice as often: more attempts than with the defaults, and the change said.
+calibrations() { grep -oE '"calibration": \{"median": [0-9.e+-]+, "p95": [0-9.e+-]+, "count": [0-9]+' "$1" | grep -oE '[0-9]+$'; }
+printf 'material.attempt_every_s = 0.25\n' >"$dir/often.settings"
+"$autocal" bench --scenario office --resolution 320x240 --seconds 2 --settings "$dir/often.settings" \
+  --set motion.flow.target_tracks=250 --json "$dir/often.json" >"$dir/often.txt" 2>/dev/null
+(( $(calibrations "$dir/often.json") > $(calibrations "$dir/plain.json") )) ||
+  fail "attempts every 0.25 s: $(calibrations "$dir/often.json"), defaults: $(calibrations "$dir/plain.json")"
+grep -q '^settings: motion.flow.target_tracks = 250, material.attempt_every_s = 0.25$' "$dir/often.txt" ||
+  fail "changed settings reported: $(grep settings "$dir/often.txt")"
+grep -q '"settings": {"motion.flow.target_tracks": "250", "material.attempt_every_s": "0.25"}' \
+  "$dir/often.json" || fail "changed settings in the JSON: $(grep settings "$dir/often.json")"
+# Refused before the rendering, naming the option.
+if "$autocal" bench --seconds 600 --set material.window_s=-1 >/dev/null 2>"$dir/err.txt"; then
+  fail "a bad --set was accepted"
+fi
+grep -q "material.window_s" "$dir/err.txt" || fail "the refusal names the option: $(cat "$dir/err.txt")"
+grep -q "rendering" "$dir/err.txt" && fail "rendered before checking the settings"
 
 # 1 s rendered, played 4 times: 120 frames with times running on, memory sampled.
 "$autocal" bench --scenario office --resolution 320x240 --seconds 4 --loop 1 \
