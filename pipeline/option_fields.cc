@@ -486,6 +486,10 @@ std::vector<OptionField> MakeFields() {
       Field<bool>("calibration.warm_start", 0, 1,
                   "start from the previous attempt's solution on the views it shares",
                   &P::calibration, &C::warm_start),
+      Field<double>("calibration.warm_start_max_median_px", 1e-3, 1000,
+                    "a warm start whose plane points reproject with a median error above "
+                    "this (px) is dropped for a cold one",
+                    &P::calibration, &C::warm_start_max_median_px),
       Field<double>("calibration.function_tolerance", 1e-12, 0.1,
                     "converged when an iteration lowers the cost by less than this fraction",
                     &P::calibration, &C::function_tolerance),

@@ -103,8 +103,7 @@ Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIn
   problem.SetManifold(intrinsics, new ceres::SubsetManifold(kNumIntrinsics, fixed));
 
   ceres::Solver::Options solver_options;
-  // Points along their lines are eliminated first (Schur complement), as in bundle
-  // adjustment.
+  // The lines are eliminated first (Schur complement), as points in bundle adjustment.
   solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
   solver_options.linear_solver_ordering.reset(ordering);
   solver_options.max_num_iterations = options.max_iterations;
@@ -226,33 +225,62 @@ std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
 bool LinePointCost::Evaluate(double const* const* parameters, double* residuals,
                              double** jacobians) const {
   const double* intrinsics = parameters[0];
-  const double theta = parameters[1][0], rho = parameters[1][1], s = parameters[2][0];
+  const double theta = parameters[1][0], rho = parameters[1][1];
   const double nx = std::cos(theta), ny = std::sin(theta);
-  const double x = rho * nx - s * ny, y = rho * ny + s * nx;
-  const bool by_line = jacobians && (jacobians[1] || jacobians[2]);
-  double by_normalized[4];
-  ProjectNormalized(intrinsics, x, y, residuals, jacobians ? jacobians[0] : nullptr,
-                    by_line ? by_normalized : nullptr);
-  residuals[0] -= pixel_.x();
-  residuals[1] -= pixel_.y();
-  if (!by_line) return true;
-  // (x, y) by t is (-y, x), by rho the normal (nx, ny), by s the direction (-ny, nx).
-  const auto chain = [&](double dx, double dy, double* row0, double* row1) {
-    *row0 = by_normalized[0] * dx + by_normalized[1] * dy;
-    *row1 = by_normalized[2] * dx + by_normalized[3] * dy;
+  double s = position_;
+  double x = 0.0, y = 0.0, by_normalized[4];
+  double along[2];  // The pixel's derivative by s: the line's image's direction there.
+  const auto project = [&](double* by_intrinsics) {
+    x = rho * nx - s * ny;
+    y = rho * ny + s * nx;
+    ProjectNormalized(intrinsics, x, y, residuals, by_intrinsics, by_normalized);
+    residuals[0] -= pixel_.x();
+    residuals[1] -= pixel_.y();
+    along[0] = -by_normalized[0] * ny + by_normalized[1] * nx;
+    along[1] = -by_normalized[2] * ny + by_normalized[3] * nx;
   };
+  // The nearest point: Gauss-Newton along the line. Near the solution each step cuts the
+  // error by the residual over the line's image's radius of curvature; two or three do.
+  constexpr int kMaxSteps = 8;
+  constexpr double kDonePx = 1e-9;
+  for (int step = 0; step < kMaxSteps; ++step) {
+    project(nullptr);
+    const double along_sq = along[0] * along[0] + along[1] * along[1];
+    if (!(along_sq > 0.0)) return false;
+    const double ds = -(along[0] * residuals[0] + along[1] * residuals[1]) / along_sq;
+    s += ds;
+    if (!std::isfinite(s)) return false;
+    if (std::abs(ds) * std::sqrt(along_sq) < kDonePx) break;
+  }
+  project(jacobians ? jacobians[0] : nullptr);
+  if (!jacobians) return true;
+  const double along_norm = std::hypot(along[0], along[1]);
+  if (!(along_norm > 0.0)) return false;
+  const double ux = along[0] / along_norm, uy = along[1] / along_norm;
+  // Each column less its component along the line's image.
+  const auto across = [&](double* row0, double* row1) {
+    const double d = ux * *row0 + uy * *row1;
+    *row0 -= ux * d;
+    *row1 -= uy * d;
+  };
+  if (double* j = jacobians[0]) {
+    for (int c = 0; c < kNumIntrinsics; ++c) across(&j[c], &j[kNumIntrinsics + c]);
+  }
   if (double* j = jacobians[1]) {
+    // (x, y) by t is (-y, x), by rho the normal (nx, ny).
+    const auto chain = [&](double dx, double dy, double* row0, double* row1) {
+      *row0 = by_normalized[0] * dx + by_normalized[1] * dy;
+      *row1 = by_normalized[2] * dx + by_normalized[3] * dy;
+      across(row0, row1);
+    };
     chain(-y, x, &j[0], &j[2]);
     chain(nx, ny, &j[1], &j[3]);
   }
-  if (double* j = jacobians[2]) chain(-ny, nx, &j[0], &j[1]);
   return true;
 }
 
 size_t PlumbLineParameterCount(const std::vector<const LineObservation*>& lines) {
-  size_t count = 0;
-  for (const LineObservation* line : lines) count += 2 + line->points.size();
-  return count;
+  return 2 * lines.size();
 }
 
 void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
@@ -265,13 +293,10 @@ void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
     double* const line = arena->Add(std::array{fit.theta, fit.rho});
     const Eigen::Vector2d along(-std::sin(fit.theta), std::cos(fit.theta));
     for (size_t k = 0; k < ideal.size(); ++k) {
-      double* const position = arena->Add(std::array{along.dot(ideal[k])});
-      problem->AddResidualBlock(
-          new LinePointCost(observed->points[k]),
-          new ceres::CauchyLoss(loss_px), intrinsics, line, position);
-      ordering->AddElementToGroup(position, 0);
+      problem->AddResidualBlock(new LinePointCost(observed->points[k], along.dot(ideal[k])),
+                                new ceres::CauchyLoss(loss_px), intrinsics, line);
     }
-    ordering->AddElementToGroup(line, 1);
+    ordering->AddElementToGroup(line, 0);
   }
 }
 

@@ -18,22 +18,28 @@
 namespace autocal {
 
 // A point of a straight world line, against where it was observed. The line is
-// x cos(t) + y sin(t) = rho in ideal normalized coordinates, the point sits at position s
-// along it, and the lens model carries it into the image: the error is measured where the
-// noise is, in pixels of the distorted image, and needs no inverse of the lens (which a
-// trial distortion may not have). Parameters: packed intrinsics (IntrinsicIndex order),
-// the line (t, rho), the position s. The Jacobian is worked by hand: a window's lines have
-// thousands of points, and automatic differentiation of their 12 parameters took half of
-// box 10's solve at 640x480.
-class LinePointCost final : public ceres::SizedCostFunction<2, kNumIntrinsics, 2, 1> {
+// x cos(t) + y sin(t) = rho in ideal normalized coordinates, and the lens model carries it
+// into the image: the residual runs from the observed pixel to the nearest point of the
+// line's image, measured where the noise is, in pixels of the distorted image, with no
+// inverse of the lens (which a trial distortion may not have). The point's position along
+// the line is not a parameter: each evaluation finds it by Gauss-Newton from `position`
+// (variable projection), and the Jacobian is the projection's, less its component along
+// the line's image (Kaufman's), the position's Schur complement. A window's lines have
+// thousands of points, and carried as parameters of their own they were half the linear
+// solver's time at 640x480. Parameters: packed intrinsics (IntrinsicIndex order) and the
+// line (t, rho). The Jacobian is worked by hand (automatic differentiation of the 11
+// parameters took half of box 10's solve at 640x480).
+class LinePointCost final : public ceres::SizedCostFunction<2, kNumIntrinsics, 2> {
  public:
-  explicit LinePointCost(const Eigen::Vector2d& pixel) : pixel_(pixel) {}
+  LinePointCost(const Eigen::Vector2d& pixel, double position)
+      : pixel_(pixel), position_(position) {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
  private:
   Eigen::Vector2d pixel_;
+  double position_;  // Along the line, where the search starts.
 };
 
 // Every parameter block of one problem in a single allocation, handed out in the order
@@ -59,8 +65,8 @@ class ParameterArena {
 size_t PlumbLineParameterCount(const std::vector<const LineObservation*>& lines);
 
 // Adds one residual per point of every line, on `intrinsics` (packed, owned by the
-// caller), with the lines and positions taken from `arena` and initialized from `start`.
-// Positions go in elimination group 0 of `ordering`, lines in group 1.
+// caller), with the lines taken from `arena` and initialized from `start`. The lines go in
+// elimination group 0 of `ordering`.
 void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
                            const CameraIntrinsics& start, double loss_px, double* intrinsics,
                            ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering,
@@ -70,7 +76,7 @@ void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
 // parameters, in order), for unit residual variance: the Gauss-Newton Hessian J^T J with
 // every other parameter marginalized out by the Schur complement. `ordering` must hold
 // every non-constant block, the intrinsics in group 1 and in group 0 only blocks seen by
-// no residual together with another group-0 block (points, positions along a line).
+// no residual together with another group-0 block (points, lines).
 // Empty when the intrinsics are not constrained.
 std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
                                                   const ceres::ParameterBlockOrdering& ordering,

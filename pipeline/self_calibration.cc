@@ -37,6 +37,8 @@ bool SelfCalibrationOptions::Check(std::string* error) const {
     why << "max_iterations must be at least 1";
   } else if (!(function_tolerance > 0 && function_tolerance < 1)) {
     why << "function_tolerance must be between 0 and 1";
+  } else if (!(warm_start_max_median_px > 0)) {
+    why << "warm_start_max_median_px must be positive";
   }
   if (why.str().empty()) return true;
   if (error) *error = why.str();
@@ -490,9 +492,23 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
                                              plane_points[r.plane][r.point].data(), e);
   });
   // The reference view holds the world still; a start that leaves it without a point it
-  // sees (its anchor plane new to this window) is of no use.
-  if (warm && std::none_of(residuals.begin(), residuals.end(),
-                           [&](const Residual& r) { return r.frame == reference; })) {
+  // sees (its anchor plane new to this window) is of no use, nor one that does not fit
+  // the window's tracks.
+  const auto median_error_px = [&] {
+    std::vector<double> errors;
+    for (const Residual& r : residuals) {
+      double e[2];
+      PlanePointCost(r.pixel).Residual(intrinsics.data(), frame_poses[r.frame].data(),
+                                       plane_poses[r.plane].data(),
+                                       plane_points[r.plane][r.point].data(), e);
+      errors.push_back(std::hypot(e[0], e[1]));
+    }
+    std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+    return errors[errors.size() / 2];
+  };
+  if (warm && (std::none_of(residuals.begin(), residuals.end(),
+                            [&](const Residual& r) { return r.frame == reference; }) ||
+               median_error_px() > options.warm_start_max_median_px)) {
     SelfCalibrationOptions cold = options;
     cold.warm_start = false;
     return SelfCalibrate(material, prior, cold);

@@ -88,6 +88,11 @@ struct SelfCalibrationOptions {
   // took one or two more iterations in seven, moving fx by 0.01% at most.
   double function_tolerance = 1e-5;
   bool warm_start = true;                // Start from CalibrationMaterial::start if set.
+  // A warm start whose plane points reproject with a median error above this (px) is
+  // dropped for a cold one. Most fit within 0.2-0.3 px; one off by 7-28 px (a short
+  // window's solution carried into the next ones) took 60-100 iterations each of four
+  // windows in a row and ended with every plane an outlier.
+  double warm_start_max_median_px = 2.0;
 
   bool Check(std::string* error) const;
 };
