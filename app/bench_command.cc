@@ -177,6 +177,7 @@ int Bench(const QStringList& arguments) {
   });
   AddPipelineSettingsOptions(parser);
   if (const auto code = Parse(parser, name, arguments)) return *code;
+  if (const auto malformed = MalformedSetting(parser)) return UsageError(name, *malformed, parser);
   bool seconds_ok = false;
   const double seconds = parser.value("seconds").toDouble(&seconds_ok);
   if (!seconds_ok || seconds <= 0.0) {

@@ -40,12 +40,18 @@ void AddPipelineSettingsOptions(QCommandLineParser& parser) {
   });
 }
 
+std::optional<QString> MalformedSetting(const QCommandLineParser& parser) {
+  for (const QString& assignment : parser.values("set")) {
+    if (assignment.indexOf('=') <= 0) return "--set takes name=value, got " + assignment;
+  }
+  return std::nullopt;
+}
+
 PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser) {
   PipelineOptions options;
   if (parser.isSet("settings")) options = ReadPipelineSettings(parser.value("settings").toStdString());
   for (const QString& assignment : parser.values("set")) {
     const qsizetype equals = assignment.indexOf('=');
-    if (equals <= 0) throw Error("--set takes name=value, got " + assignment.toStdString());
     SetPipelineOption(&options, assignment.left(equals).toStdString(),
                       assignment.mid(equals + 1).toStdString());
   }

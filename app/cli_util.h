@@ -25,8 +25,12 @@ int UsageError(const QString& name, const QString& message, const QCommandLinePa
 // The options --settings (a pipeline settings file) and --set (one option, repeatable).
 void AddPipelineSettingsOptions(QCommandLineParser& parser);
 
-// Pipeline options from --settings, then each --set in order, checked. Throws Error naming
-// the file and line, or the option, at fault.
+// A --set that is not name=value, as a usage error's message.
+std::optional<QString> MalformedSetting(const QCommandLineParser& parser);
+
+// Pipeline options from --settings, then each --set in order (all name=value:
+// MalformedSetting), checked. Throws Error naming the file and line, or the option, at
+// fault.
 PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser);
 
 // Progress on stderr: one line rewritten in place on a terminal, a line per 10% elsewhere.

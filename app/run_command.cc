@@ -173,6 +173,7 @@ int Run(const QStringList& arguments) {
   });
   AddPipelineSettingsOptions(parser);
   if (const auto code = Parse(parser, name, arguments)) return *code;
+  if (const auto malformed = MalformedSetting(parser)) return UsageError(name, *malformed, parser);
   if (!parser.isSet("input") && !parser.isSet("print-settings")) {
     return UsageError(name, "--input is required", parser);
   }

@@ -25,10 +25,10 @@ namespace autocal {
 // the line is not a parameter: each evaluation finds it by Gauss-Newton from `position`
 // (variable projection), and the Jacobian is the projection's, less its component along
 // the line's image (Kaufman's), the position's Schur complement. A window's lines have
-// thousands of points, and carried as parameters of their own they were half the linear
-// solver's time at 640x480. Parameters: packed intrinsics (IntrinsicIndex order) and the
-// line (t, rho). The Jacobian is worked by hand (automatic differentiation of the 11
-// parameters took half of box 10's solve at 640x480).
+// a thousand or more points, and carried as parameters of their own their positions and
+// lines made nearly half of box 10's linear solver time. Parameters: packed intrinsics
+// (IntrinsicIndex order) and the line (t, rho). The Jacobian is worked by hand (automatic
+// differentiation once took half of box 10's solve at 640x480).
 class LinePointCost final : public ceres::SizedCostFunction<2, kNumIntrinsics, 2> {
  public:
   LinePointCost(const Eigen::Vector2d& pixel, double position)

@@ -39,6 +39,11 @@ if "$autocal" bench --seconds 600 --set material.window_s=-1 >/dev/null 2>"$dir/
 fi
 grep -q "material.window_s" "$dir/err.txt" || fail "the refusal names the option: $(cat "$dir/err.txt")"
 grep -q "rendering" "$dir/err.txt" && fail "rendered before checking the settings"
+if "$autocal" bench --set material.window_s >/dev/null 2>"$dir/err.txt"; then
+  fail "a --set without a value was accepted"
+else
+  [[ $? == 2 ]] || fail "a --set without a value is bad usage (exit 2)"
+fi
 
 # 1 s rendered, played 4 times: 120 frames with times running on, memory sampled.
 "$autocal" bench --scenario office --resolution 320x240 --seconds 4 --loop 1 \

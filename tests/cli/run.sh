@@ -57,6 +57,7 @@ grep -qx 'material.max_lines = 10' "$dir/s2.settings" || fail "--set applied aft
 expect_run 2 '--input is required'
 expect_run 2 '--export and --format go together' --input sim:static --export "$dir/x.yaml"
 expect_run 1 'no-such-dir' --input "$dir/no-such-dir"
+expect_run 2 "--set takes name=value" --input sim:static --set material.window_s
 expect_run 1 "unknown option 'material.windw_s'" --input sim:static --set material.windw_s=3
 expect_run 1 'must be in' --input sim:static --set material.window_s=-1
 expect_run 1 'unknown calibration format' --input sim:static --export "$dir/x" --format matlab
