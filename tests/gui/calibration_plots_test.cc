@@ -32,6 +32,7 @@
 #include "pipeline/calibration_history.h"
 #include "pipeline/calibration_io.h"
 #include "pipeline/history_store.h"
+#include "tests/gui/pixels.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
 #include "widgets/history_table.h"
@@ -132,30 +133,13 @@ TestHistory WriteTestHistory(const QTemporaryDir& dir) {
   return out;
 }
 
-// Colour distance, largest over the channels.
-int ColorDistance(QRgb a, const QColor& b) {
-  return std::max({std::abs(qRed(a) - b.red()), std::abs(qGreen(a) - b.green()),
-                   std::abs(qBlue(a) - b.blue())});
-}
-
-// Whether `color` is drawn within `radius` pixels of `at` in `image`.
+// A colour drawn within `radius` pixels of `at`; pixels of a colour.
 bool DrawnNear(const QImage& image, QPoint at, const QColor& color, int radius = 1) {
-  for (int dy = -radius; dy <= radius; ++dy) {
-    for (int dx = -radius; dx <= radius; ++dx) {
-      const QPoint p = at + QPoint(dx, dy);
-      if (image.rect().contains(p) && ColorDistance(image.pixel(p), color) < 40) return true;
-    }
-  }
-  return false;
+  return autocal::DrawnNear(image, at, color, radius, 39);
 }
 
-// Pixels of `color` in `image`.
 int CountColor(const QImage& image, const QColor& color) {
-  int count = 0;
-  for (int y = 0; y < image.height(); ++y) {
-    for (int x = 0; x < image.width(); ++x) count += ColorDistance(image.pixel(x, y), color) < 40;
-  }
-  return count;
+  return autocal::CountColor(image, color, 39);
 }
 
 const AttemptRecord& AttemptAt(const CalibrationSeries& series, int second) {

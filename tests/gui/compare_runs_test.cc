@@ -17,6 +17,7 @@
 #include "pipeline/option_fields.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
+#include "pixels.h"
 #include "screenshot.h"
 
 namespace autocal {
@@ -26,18 +27,7 @@ constexpr int kOpenTimeoutMs = 30000;
 constexpr char kWalk[] = "office,lens=tessar,resolution=320x240,seconds=4";
 
 bool ColorNear(const QImage& image, QPoint at, const QColor& color, int radius) {
-  for (int dy = -radius; dy <= radius; ++dy) {
-    for (int dx = -radius; dx <= radius; ++dx) {
-      const QPoint p = at + QPoint(dx, dy);
-      if (!image.rect().contains(p)) continue;
-      const QColor c = image.pixelColor(p);
-      if (std::abs(c.red() - color.red()) + std::abs(c.green() - color.green()) +
-              std::abs(c.blue() - color.blue()) < 60) {
-        return true;
-      }
-    }
-  }
-  return false;
+  return DrawnNear(image, at, color, radius, 30);
 }
 
 std::shared_ptr<const CalibrationSeries> Open(const QString& path) {

@@ -13,33 +13,19 @@
 #include "devices/runtime.h"
 #include "devices/sim/simulator.h"
 #include "widgets/scene_view.h"
+#include "pixels.h"
 #include "screenshot.h"
 
 namespace autocal {
 namespace {
 
-bool Near(const QColor& a, const QColor& b, int tolerance) {
-  return std::abs(a.red() - b.red()) <= tolerance && std::abs(a.green() - b.green()) <= tolerance &&
-         std::abs(a.blue() - b.blue()) <= tolerance;
-}
-
-// Whether a pixel within `radius` of `at` has `color`.
+// Whether a pixel within `radius` of `at` has `color`; pixels of a colour.
 bool ColorNear(const QImage& image, QPointF at, const QColor& color, int radius = 2) {
-  for (int dy = -radius; dy <= radius; ++dy) {
-    for (int dx = -radius; dx <= radius; ++dx) {
-      const QPoint p(int(std::lround(at.x())) + dx, int(std::lround(at.y())) + dy);
-      if (image.rect().contains(p) && Near(image.pixelColor(p), color, 30)) return true;
-    }
-  }
-  return false;
+  return DrawnNear(image, at, color, radius, 30);
 }
 
 int CountColor(const QImage& image, const QColor& color) {
-  int count = 0;
-  for (int y = 0; y < image.height(); ++y) {
-    for (int x = 0; x < image.width(); ++x) count += Near(image.pixelColor(x, y), color, 12);
-  }
-  return count;
+  return autocal::CountColor(image, color, 12);
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include <QtTest>
 
 #include "devices/sequence.h"
+#include "tests/gui/pixels.h"
 #include "tests/gui/screenshot.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
@@ -33,11 +34,6 @@ constexpr int kFrameTimeoutMs = 20000;
 constexpr int kPipelineTimeoutMs = 280000;
 
 QImage Grab(VideoView& view) { return view.grab().toImage().convertToFormat(QImage::Format_RGB32); }
-
-int ColorDistance(QRgb a, const QColor& b) {
-  return std::max({std::abs(qRed(a) - b.red()), std::abs(qGreen(a) - b.green()),
-                   std::abs(qBlue(a) - b.blue())});
-}
 
 // Of points every 8 px along the frame's edges, 1 px inside, the fraction in `color`.
 double BorderFraction(const QImage& image, const QRectF& frame, const QColor& color) {
