@@ -77,6 +77,14 @@ std::optional<SceneGeometry> MakeSceneGeometry(const AttemptOutcome& attempt,
   }
   if (gravity_cam && gravity_cam->norm() > 0) {
     scene.gravity = newest->linear() * gravity_cam->normalized();
+    scene.gravity_length = scene.frustum_depth;
+    for (const VirtualBoard& board : attempt.boards) {
+      const Eigen::Vector3d normal = board.world_from_plane.linear().col(2);
+      const double towards = normal.dot(*scene.gravity);
+      if (std::abs(towards) < 1e-9) continue;  // Parallel: never met.
+      const double distance = normal.dot(board.world_from_plane.translation() - centre) / towards;
+      if (distance > 0) scene.gravity_length = std::min(scene.gravity_length, 0.8 * distance);
+    }
   }
   return scene;
 }

@@ -43,6 +43,9 @@ struct SceneGeometry {
   double frustum_depth = 0.0;
   std::vector<SceneBoard> boards;
   std::optional<Eigen::Vector3d> gravity;  // Unit "down" in the world, when known.
+  // How long to draw gravity from the camera: the frustum's depth, or less, so as to stop
+  // short of the first board's plane it would meet (the floor under the camera).
+  double gravity_length = 0.0;
 };
 
 // The scene of `attempt` seen through `camera` (the calibration in effect). `gravity_cam`:

@@ -102,6 +102,26 @@ TEST(SceneGeometry, TrajectoryFrustumBoardsAndGravity) {
   EXPECT_NEAR(scene->gravity->norm(), 1.0, 1e-12);
   EXPECT_TRUE(scene->gravity->isApprox(cam_from_world.inverse().linear() * gravity_cam.normalized(),
                                        1e-12));
+  // Down, nearly along the wall: it meets the wall's plane far beyond the frustum's depth.
+  EXPECT_EQ(scene->gravity_length, scene->frustum_depth);
+}
+
+// Gravity is drawn from the camera down, stopping short of the floor: with the floor 0.3
+// below the newest camera (the frustum reaches 0.5 and more), at 0.8 of the way to it.
+TEST(SceneGeometry, GravityStopsShortOfTheFloor) {
+  AttemptOutcome attempt = Attempt();
+  const Eigen::Isometry3d world_from_cam = attempt.cam_from_world.back()->inverse();
+  Eigen::Isometry3d world_from_floor = Eigen::Isometry3d::Identity();
+  world_from_floor.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).matrix();
+  world_from_floor.translation() = world_from_cam.translation() + Eigen::Vector3d(0.4, 0.3, 1.0);
+  attempt.boards.push_back(
+      AttachBoard(8, world_from_floor, {{-0.5, -0.4}, {0.7, 0.5}, {0.1, 0.3}}, VirtualBoardOptions()));
+  const Eigen::Vector3d down_world(0.0, 1.0, 0.0);  // The floor's normal, +y.
+  const std::optional<SceneGeometry> scene =
+      MakeSceneGeometry(attempt, Lens(), world_from_cam.linear().transpose() * down_world);
+  ASSERT_TRUE(scene && scene->gravity);
+  ASSERT_GT(scene->frustum_depth, 0.3);
+  EXPECT_NEAR(scene->gravity_length, 0.8 * 0.3, 1e-9);
 }
 
 // The board as the video overlay draws it: only within the hull of the plane's tracked

@@ -176,7 +176,7 @@ void SceneView::rebuild() {
     renderer->AddActor(Polygons(board.dark, SceneDarkSquareColor()));
   }
   if (s.gravity) {
-    const double length = s.frustum_depth;  // Longer would pierce the floor under the camera.
+    const double length = s.gravity_length;
     const Eigen::Vector3d start = f[0];
     const Eigen::Vector3d tip = start + length * *s.gravity;
     renderer->AddActor(Polylines({{start, tip}}, SceneGravityColor(), 4.0));

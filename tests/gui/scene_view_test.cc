@@ -152,10 +152,13 @@ void SceneViewTest::drawsTheNewestAttemptsScene() {
   }
   // Gravity: the arrow from the camera, pointing down the screen (the view's up is up).
   QVERIFY(glyphs.gravity);
-  const Eigen::Vector3d mid = f[0] + 0.5 * glyphs.frustum_depth * *glyphs.gravity;
+  const Eigen::Vector3d mid = f[0] + 0.5 * glyphs.gravity_length * *glyphs.gravity;
   QVERIFY(ColorNear(camera_image, view.worldToImage(mid), SceneGravityColor()));
-  const Eigen::Vector3d tip = f[0] + glyphs.frustum_depth * *glyphs.gravity;
+  const Eigen::Vector3d tip = f[0] + glyphs.gravity_length * *glyphs.gravity;
   QVERIFY(view.worldToImage(tip).y() > view.worldToImage(f[0]).y() + 10);
+  // It ends where it is drawn to: nothing of it past the tip.
+  const Eigen::Vector3d beyond = f[0] + 1.3 * glyphs.gravity_length * *glyphs.gravity;
+  QVERIFY(!ColorNear(camera_image, view.worldToImage(beyond), SceneGravityColor()));
 
   view.clear();
   QVERIFY(!view.scene());
