@@ -26,10 +26,6 @@ namespace {
 constexpr int kOpenTimeoutMs = 30000;
 constexpr char kWalk[] = "office,lens=tessar,resolution=320x240,seconds=4";
 
-bool ColorNear(const QImage& image, QPoint at, const QColor& color, int radius) {
-  return DrawnNear(image, at, color, radius, 30);
-}
-
 std::shared_ptr<const CalibrationSeries> Open(const QString& path) {
   HistoryOpener opener;
   std::shared_ptr<const CalibrationSeries> series;
@@ -124,14 +120,14 @@ void CompareRunsTest::bothRunsAreDrawnAndNamed() {
   const QImage image = fx.grab().toImage();
   plots.grab().save(ScreenshotPath("compare_runs.png"));
   for (const QPointF& p : fx.compareMarkers()->points()) {
-    QVERIFY2(ColorNear(image, fx.positionOf(p.x(), p.y()), CompareColor(), 6),
+    QVERIFY2(DrawnNear(image, fx.positionOf(p.x(), p.y()), CompareColor(), 6),
              qPrintable(QString("compared attempt at %1 s").arg(p.x())));
   }
   const QPointF mid = fx.compareTrend()->at(fx.compareTrend()->count() / 2);
   const QPointF first_mid = fx.trend()->at(fx.trend()->count() / 2);
-  QVERIFY(ColorNear(image, fx.positionOf(mid.x(), mid.y()), CompareColor(), 2) ||
-          ColorNear(image, fx.positionOf(mid.x(), mid.y()), TrendColor(), 2));
-  QVERIFY(ColorNear(image, fx.positionOf(first_mid.x(), first_mid.y()), TrendColor(), 2));
+  QVERIFY(DrawnNear(image, fx.positionOf(mid.x(), mid.y()), CompareColor(), 2) ||
+          DrawnNear(image, fx.positionOf(mid.x(), mid.y()), TrendColor(), 2));
+  QVERIFY(DrawnNear(image, fx.positionOf(first_mid.x(), first_mid.y()), TrendColor(), 2));
 
   // Cleared: the first run alone.
   plots.clearCompareAction()->trigger();

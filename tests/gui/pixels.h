@@ -18,8 +18,8 @@ inline int ColorDistance(const QColor& a, const QColor& b) {
 }
 
 // Whether a pixel within `radius` of `at` is within `tolerance` of `color`.
-inline bool DrawnNear(const QImage& image, QPointF at, const QColor& color, int radius,
-                      int tolerance) {
+inline bool DrawnNear(const QImage& image, QPointF at, const QColor& color, int radius = 2,
+                      int tolerance = 30) {
   const QPoint centre(int(std::lround(at.x())), int(std::lround(at.y())));
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {

@@ -19,11 +19,6 @@
 namespace autocal {
 namespace {
 
-// Whether a pixel within `radius` of `at` has `color`; pixels of a colour.
-bool ColorNear(const QImage& image, QPointF at, const QColor& color, int radius = 2) {
-  return DrawnNear(image, at, color, radius, 30);
-}
-
 int CountColor(const QImage& image, const QColor& color) {
   return autocal::CountColor(image, color, 12);
 }
@@ -107,7 +102,7 @@ void SceneViewTest::drawsTheNewestAttemptsScene() {
   int on_trajectory = 0;
   for (size_t i = 0; i + 1 < scene.trajectory.size(); ++i) {
     const Eigen::Vector3d mid = (scene.trajectory[i] + scene.trajectory[i + 1]) / 2.0;
-    on_trajectory += ColorNear(image, view.worldToImage(mid), SceneTrajectoryColor());
+    on_trajectory += DrawnNear(image, view.worldToImage(mid), SceneTrajectoryColor());
   }
   QVERIFY2(on_trajectory * 2 >= int(scene.trajectory.size()) - 1, qPrintable(QString::number(on_trajectory)));
   // Each plane's colour, and its board's dark squares.
@@ -122,7 +117,7 @@ void SceneViewTest::drawsTheNewestAttemptsScene() {
       const Eigen::Vector3d centre = (square[0] + square[1] + square[2] + square[3]) / 4.0;
       const QPointF at = view.worldToImage(centre);
       ++squares;
-      seen += ColorNear(image, at, SceneDarkSquareColor(), 1);
+      seen += DrawnNear(image, at, SceneDarkSquareColor(), 1);
     }
   }
   QVERIFY2(seen * 2 > squares, qPrintable(QString("%1 of %2").arg(seen).arg(squares)));
@@ -144,21 +139,21 @@ void SceneViewTest::drawsTheNewestAttemptsScene() {
   const auto& f = glyphs.frustum;
   for (int k = 1; k <= 4; ++k) {
     const Eigen::Vector3d edge = (f[0] + f[size_t(k)]) / 2.0;
-    QVERIFY2(ColorNear(camera_image, view.worldToImage(edge), SceneFrustumColor()),
+    QVERIFY2(DrawnNear(camera_image, view.worldToImage(edge), SceneFrustumColor()),
              qPrintable(QString::number(k)));
     const Eigen::Vector3d side = (f[size_t(k)] + f[size_t(k % 4 + 1)]) / 2.0;
-    QVERIFY2(ColorNear(camera_image, view.worldToImage(side), SceneFrustumColor()),
+    QVERIFY2(DrawnNear(camera_image, view.worldToImage(side), SceneFrustumColor()),
              qPrintable(QString::number(k)));
   }
   // Gravity: the arrow from the camera, pointing down the screen (the view's up is up).
   QVERIFY(glyphs.gravity);
   const Eigen::Vector3d mid = f[0] + 0.5 * glyphs.gravity_length * *glyphs.gravity;
-  QVERIFY(ColorNear(camera_image, view.worldToImage(mid), SceneGravityColor()));
+  QVERIFY(DrawnNear(camera_image, view.worldToImage(mid), SceneGravityColor()));
   const Eigen::Vector3d tip = f[0] + glyphs.gravity_length * *glyphs.gravity;
   QVERIFY(view.worldToImage(tip).y() > view.worldToImage(f[0]).y() + 10);
   // It ends where it is drawn to: nothing of it past the tip.
   const Eigen::Vector3d beyond = f[0] + 1.3 * glyphs.gravity_length * *glyphs.gravity;
-  QVERIFY(!ColorNear(camera_image, view.worldToImage(beyond), SceneGravityColor()));
+  QVERIFY(!DrawnNear(camera_image, view.worldToImage(beyond), SceneGravityColor()));
 
   view.clear();
   QVERIFY(!view.scene());
