@@ -243,7 +243,15 @@ void PlaceByPnp(const std::vector<Tracks>& planes, Structure* s) {
     }
     Pose pose = {rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2),
                  tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)};
-    s->cam_from_world[frame] = ToIsometry(pose);
+    // Points on one plane project the same through a pose turned half round about the
+    // plane's normal and put behind the camera; PnP may return that one. Such a view could
+    // not be evaluated and would stand in the result turned over.
+    const Eigen::Isometry3d cam_from_world = ToIsometry(pose);
+    const auto in_front = std::count_if(object.begin(), object.end(), [&](const cv::Point3d& x) {
+      return (cam_from_world * Eigen::Vector3d(x.x, x.y, x.z)).z() > 0;
+    });
+    if (2 * in_front < long(object.size())) continue;
+    s->cam_from_world[frame] = cam_from_world;
   }
 }
 
