@@ -157,7 +157,8 @@ FrameSnapshot MotionHalf::Process(LensFrame frame, std::optional<CalibrationJob>
     last_degraded_ns_ = frame.t_ns;
     last_degraded_ = *degraded;
   }
-  snapshot.view = snapshot.degraded.empty() && material_.Add(snapshot.motion, snapshot.inertial);
+  snapshot.view = snapshot.degraded.empty() &&
+                  material_.Add(snapshot.motion, snapshot.inertial, frame.gray, snapshot.working);
   // While frames are unfit, attempts still come when due, so that the history says why
   // nothing is updated; they stay without an update until the window is clean again.
   const bool window_degraded =

@@ -21,26 +21,33 @@ bool MaterialOptions::Check(std::string* error) const {
     why = "max_lines must not be negative";
   } else if (!quality.Check(&why)) {
     why = "quality." + why;
+  } else if (!anchor.Check(&why)) {
+    why = "anchor." + why;
   }
   if (why.empty()) return true;
   if (error) *error = why;
   return false;
 }
 
-MaterialWindow::MaterialWindow(const MaterialOptions& options) : options_(options) {}
+MaterialWindow::MaterialWindow(const MaterialOptions& options)
+    : options_(options), anchors_(options.anchor) {}
 
-bool MaterialWindow::Add(const MotionSnapshot& motion, const InertialSnapshot& inertial) {
+bool MaterialWindow::Add(const MotionSnapshot& motion, const InertialSnapshot& inertial,
+                         const cv::Mat& image, const CameraIntrinsics& camera) {
   if (frames_seen_++ % options_.view_every_frames != 0) return false;
   View view;
   view.t_ns = motion.t_ns;
   for (const DominantPlane& plane : motion.planes) {
+    const std::vector<std::optional<cv::Point2f>> measured = anchors_.Measure(plane, image, camera);
     auto& points = view.planes[plane.id];
     points.reserve(plane.track_ids.size());
     for (size_t i = 0; i < plane.track_ids.size(); ++i) {
-      points.emplace_back(plane.track_ids[i],
-                          Eigen::Vector2d(plane.points[i].x, plane.points[i].y));
+      if (measured[i]) {
+        points.emplace_back(plane.track_ids[i], Eigen::Vector2d(measured[i]->x, measured[i]->y));
+      }
     }
   }
+  anchors_.Keep(motion.planes);
   if (inertial.gravity_source == GravitySource::kMeasured && inertial.gravity_cam) {
     GravityObservation gravity;
     gravity.down_cam = inertial.gravity_cam->normalized();

@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include "pipeline/anchored_tracks.h"
 #include "pipeline/image_quality.h"
 #include "pipeline/inertial.h"
 #include "pipeline/motion_stage.h"
@@ -38,6 +39,9 @@ struct MaterialOptions {
   // Frames unfit to measure from (fog, noise bursts) are no views, and a window that held
   // one makes no update.
   ImageQualityOptions quality;
+  // Plane tracks measured against the patch where each was first measured on its plane,
+  // not where box 5's drifting window has it (pipeline/anchored_tracks.h).
+  AnchorOptions anchor;
 
   bool Check(std::string* error) const;
 };
@@ -46,8 +50,10 @@ class MaterialWindow {
  public:
   explicit MaterialWindow(const MaterialOptions& options = {});
 
-  // Every frame, after boxes 4-7. Takes it as a view when one is due; returns whether it did.
-  bool Add(const MotionSnapshot& motion, const InertialSnapshot& inertial);
+  // Every frame, after boxes 4-7, with the image box 5 tracked and the calibration boxes
+  // 4-6 worked with. Takes it as a view when one is due; returns whether it did.
+  bool Add(const MotionSnapshot& motion, const InertialSnapshot& inertial, const cv::Mat& image,
+           const CameraIntrinsics& camera);
 
   // The window as box 10's material, with `lines` thinned to max_lines.
   CalibrationMaterial Assemble(const std::vector<LineObservation>& lines) const;
@@ -57,7 +63,10 @@ class MaterialWindow {
   // The time span the views cover, seconds.
   double span_s() const;
 
-  void set_options(const MaterialOptions& options) { options_ = options; }
+  void set_options(const MaterialOptions& options) {
+    options_ = options;
+    anchors_.set_options(options.anchor);
+  }
   const MaterialOptions& options() const { return options_; }
 
  private:
@@ -70,6 +79,7 @@ class MaterialWindow {
 
   MaterialOptions options_;
   std::deque<View> views_;
+  AnchoredTracks anchors_;
   int64_t frames_seen_ = 0;
 };
 

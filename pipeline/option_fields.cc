@@ -68,6 +68,7 @@ std::vector<OptionField> MakeFields() {
   using B = VirtualBoardOptions;
   using Mat = MaterialOptions;
   using Q = ImageQualityOptions;
+  using Anc = AnchorOptions;
   using C = SelfCalibrationOptions;
   using A = AcceptanceOptions;
   return {
@@ -418,6 +419,23 @@ std::vector<OptionField> MakeFields() {
                  &P::material, &Mat::min_views_per_point),
       Field<int>("material.max_lines", 0, 100000, "straight-line shapes handed to box 10",
                  &P::material, &Mat::max_lines),
+      Field<bool>("material.anchor.enabled", 0, 1,
+                  "measure plane tracks against the patch each was first measured at, warped "
+                  "by its plane (no tracker drift)",
+                  &P::material, &Mat::anchor, &Anc::enabled),
+      Field<int>("material.anchor.window_px", 5, 101, "side of the patch aligned (px, odd)",
+                 &P::material, &Mat::anchor, &Anc::window_px),
+      Field<double>("material.anchor.max_shift_px", 0.01, 100,
+                    "an aligned track this far from the tracker's position is not measured (px)",
+                    &P::material, &Mat::anchor, &Anc::max_shift_px),
+      Field<double>("material.anchor.min_correlation", -0.99, 0.99,
+                    "...nor one correlating less with its warped anchor patch", &P::material,
+                    &Mat::anchor, &Anc::min_correlation),
+      Field<int>("material.anchor.max_iterations", 1, 1000, "Gauss-Newton steps per alignment",
+                 &P::material, &Mat::anchor, &Anc::max_iterations),
+      Field<double>("material.anchor.epsilon_px", 1e-6, 1,
+                    "...or until a step is shorter than this (px)", &P::material, &Mat::anchor,
+                    &Anc::epsilon_px),
       Field<bool>("material.quality.enabled", 0, 1,
                   "judge each frame's image quality (fog, noise) before measuring from it",
                   &P::material, &Mat::quality, &Q::enabled),

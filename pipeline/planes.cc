@@ -574,6 +574,8 @@ void PlaneTracker::Reanchor(State* state, const Frame& frame) const {
   }
   for (auto& [t, h] : state->chain) h = h * new_to_old;
   state->chain.back().second = state->homography = state->recent;
+  state->previous_reference_t_ns = state->reference_t_ns;
+  state->previous_to_reference = old_to_new;
   state->reference_t_ns = frame.base_t_ns;
   if (turn) {
     state->normal_reference = *turn * *state->normal_reference;
@@ -644,6 +646,8 @@ DominantPlane PlaneTracker::Describe(const State& state, const Frame& frame) con
   plane.age = state.age;
   plane.reference_t_ns = state.reference_t_ns;
   plane.homography = state.homography;
+  plane.previous_reference_t_ns = state.previous_reference_t_ns;
+  plane.previous_to_reference = state.previous_to_reference;
   for (const auto& [id, point] : state.members) {
     plane.track_ids.push_back(id);
     plane.points.push_back((*frame.tracks)[frame.index.at(id)].current());

@@ -108,6 +108,10 @@ struct DominantPlane {
   std::vector<cv::Point2f> outline;             // Convex hull of `points`.
   double area_fraction = 0.0;                   // Area of the outline over the image's.
   cv::Matx33d homography = cv::Matx33d::eye();  // Reference -> now, undistorted pixels.
+  // The reference frame before this one (none: -1) and the homography from it to this
+  // one, so that what was measured against the old reference carries over.
+  int64_t previous_reference_t_ns = -1;
+  cv::Matx33d previous_to_reference = cv::Matx33d::eye();
   // The decomposition chosen by the votes, once the camera has moved enough.
   std::optional<PlaneMotion> motion;
   // Unit normal in the current camera frame, pointing toward the camera.
@@ -135,6 +139,8 @@ class PlaneTracker {
     int id = 0;
     int age = 0;
     int64_t reference_t_ns = 0;
+    int64_t previous_reference_t_ns = -1;
+    cv::Matx33d previous_to_reference = cv::Matx33d::eye();
     cv::Matx33d homography = cv::Matx33d::eye();  // Reference -> now.
     cv::Matx33d recent = cv::Matx33d::eye();      // Baseline frame -> now.
     std::optional<cv::Matx33d> longer;            // Long baseline frame -> now.

@@ -50,7 +50,8 @@ TEST(MaterialWindow, TakesEveryNthFrameOverTheWindow) {
   MaterialWindow window(options);
   int views = 0;
   for (int i = 0; i < 90; ++i) {  // 3 s at 30 Hz.
-    views += window.Add(Frame(int64_t(i) * 33333333, 0, 20), AtRest(GravitySource::kNone));
+    views += window.Add(Frame(int64_t(i) * 33333333, 0, 20), AtRest(GravitySource::kNone),
+                        cv::Mat(), {});
   }
   EXPECT_EQ(views, 30);
   const std::vector<int64_t> times = window.view_times();
@@ -66,6 +67,7 @@ TEST(MaterialWindow, HandsOnTheRealTrackPixelsOfTheLongestSeenTracks) {
   options.view_every_frames = 1;
   options.max_points_per_plane = 10;
   options.min_views_per_point = 3;
+  options.anchor.enabled = false;  // The pixels as box 5 measured them.
   MaterialWindow window(options);
   // Tracks 0-19 seen in all 6 frames; 20-29 only in the last two; 30-39 in the last four.
   for (int i = 0; i < 6; ++i) {
@@ -77,7 +79,7 @@ TEST(MaterialWindow, HandsOnTheRealTrackPixelsOfTheLongestSeenTracks) {
       frame.planes[0].track_ids.push_back(late.planes[0].track_ids[k]);
       frame.planes[0].points.push_back(late.planes[0].points[k]);
     }
-    window.Add(frame, AtRest(GravitySource::kNone));
+    window.Add(frame, AtRest(GravitySource::kNone), cv::Mat(), {});
   }
   const CalibrationMaterial material = window.Assemble({});
   EXPECT_EQ(material.frame_count, 6);
@@ -99,9 +101,9 @@ TEST(MaterialWindow, GravityOnlyWhereMeasuredAtRest) {
   MaterialOptions options;
   options.view_every_frames = 1;
   MaterialWindow window(options);
-  window.Add(Frame(0, 0, 20), AtRest(GravitySource::kMeasured));
-  window.Add(Frame(1000000, 0, 20), AtRest(GravitySource::kPropagated));
-  window.Add(Frame(2000000, 0, 20), AtRest(GravitySource::kMeasured));
+  window.Add(Frame(0, 0, 20), AtRest(GravitySource::kMeasured), cv::Mat(), {});
+  window.Add(Frame(1000000, 0, 20), AtRest(GravitySource::kPropagated), cv::Mat(), {});
+  window.Add(Frame(2000000, 0, 20), AtRest(GravitySource::kMeasured), cv::Mat(), {});
   const CalibrationMaterial material = window.Assemble({});
   ASSERT_EQ(material.gravity.size(), 2u);
   EXPECT_EQ(material.gravity[0].frame, 0);
@@ -114,7 +116,7 @@ TEST(MaterialWindow, ThinsLinesEvenlyOverThePool) {
   MaterialOptions options;
   options.max_lines = 4;
   MaterialWindow window(options);
-  window.Add(Frame(0, 0, 20), AtRest(GravitySource::kNone));
+  window.Add(Frame(0, 0, 20), AtRest(GravitySource::kNone), cv::Mat(), {});
   std::vector<LineObservation> lines(10);
   for (int i = 0; i < 10; ++i) lines[i].points = {Eigen::Vector2d(i, 0)};
   const CalibrationMaterial material = window.Assemble(lines);

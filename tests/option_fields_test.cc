@@ -80,8 +80,9 @@ TEST(OptionFields, EveryMemberOfEveryOptionStructIsBound) {
       {"inertial.motion", MemberCount<MotionClassOptions>(), 0},
       {"inertial.scale", MemberCount<ScaleOptions>(), 0},
       {"board", MemberCount<VirtualBoardOptions>(), 0},
-      {"material", MemberCount<MaterialOptions>(), 1},
+      {"material", MemberCount<MaterialOptions>(), 2},
       {"material.quality", MemberCount<ImageQualityOptions>(), 0},
+      {"material.anchor", MemberCount<AnchorOptions>(), 0},
       {"calibration", MemberCount<SelfCalibrationOptions>(), 0},
       {"acceptance", MemberCount<AcceptanceOptions>(), 0},
   };

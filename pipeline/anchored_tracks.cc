@@ -1,0 +1,215 @@
+#include "pipeline/anchored_tracks.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+namespace autocal {
+
+bool AnchorOptions::Check(std::string* error) const {
+  std::ostringstream why;
+  if (window_px < 5 || window_px % 2 == 0) {
+    why << "window_px must be odd and at least 5";
+  } else if (!(max_shift_px > 0)) {
+    why << "max_shift_px must be positive";
+  } else if (!(min_correlation > -1 && min_correlation < 1)) {
+    why << "min_correlation must be between -1 and 1";
+  } else if (max_iterations < 1) {
+    why << "max_iterations must be at least 1";
+  } else if (!(epsilon_px > 0)) {
+    why << "epsilon_px must be positive";
+  }
+  if (why.str().empty()) return true;
+  if (error) *error = why.str();
+  return false;
+}
+
+AnchoredTracks::AnchoredTracks(const AnchorOptions& options) : options_(options) {}
+
+namespace {
+
+// The anchor's patch reaches this far around its pixel: room for the plane to shrink to
+// half its size in the image before the warped window runs off it.
+int PatchRadius(const AnchorOptions& options) { return options.window_px + 2; }
+
+bool Inside(const cv::Mat& image, cv::Point2f p, double margin) {
+  return p.x >= margin && p.y >= margin && p.x <= image.cols - 1 - margin &&
+         p.y <= image.rows - 1 - margin;
+}
+
+// Raw pixel of an undistorted one (the camera matrix alone), with its Jacobian.
+cv::Point2d Raw(const CameraIntrinsics& camera, cv::Point2d ideal, cv::Matx22d* raw_from_ideal) {
+  const auto packed = camera.Packed();
+  double pixel[2], by_normalized[4];
+  ProjectNormalized(packed.data(), (ideal.x - camera.cx) / camera.fx,
+                    (ideal.y - camera.cy) / camera.fy, pixel, nullptr, by_normalized);
+  *raw_from_ideal = cv::Matx22d(by_normalized[0] / camera.fx, by_normalized[1] / camera.fy,
+                                by_normalized[2] / camera.fx, by_normalized[3] / camera.fy);
+  return {pixel[0], pixel[1]};
+}
+
+}  // namespace
+
+std::optional<AnchoredTracks::Anchor> AnchoredTracks::Take(const DominantPlane& plane,
+                                                           const cv::Mat& image,
+                                                           const CameraIntrinsics& camera,
+                                                           cv::Point2f pixel) const {
+  const int radius = PatchRadius(options_);
+  if (!Inside(image, pixel, radius + 1)) return std::nullopt;
+  const auto ray = Unproject(camera, Eigen::Vector2d(pixel.x, pixel.y));
+  if (!ray) return std::nullopt;
+  Anchor anchor;
+  anchor.plane = plane.id;
+  anchor.reference_t_ns = plane.reference_t_ns;
+  anchor.reference_to_anchor = plane.homography;
+  anchor.pixel = pixel;
+  anchor.ideal = {camera.fx * ray->x() + camera.cx, camera.fy * ray->y() + camera.cy};
+  cv::Matx22d raw_from_ideal;
+  Raw(camera, anchor.ideal, &raw_from_ideal);
+  anchor.ideal_from_raw = raw_from_ideal.inv();
+  cv::getRectSubPix(image, cv::Size(2 * radius + 1, 2 * radius + 1), pixel, anchor.patch, CV_32F);
+  return anchor;
+}
+
+std::optional<cv::Point2f> AnchoredTracks::Align(const Anchor& anchor, const DominantPlane& plane,
+                                                 const cv::Mat& image,
+                                                 const CameraIntrinsics& camera,
+                                                 cv::Point2f start) {
+  const int r = options_.window_px / 2;
+  if (!Inside(image, start, r + options_.max_shift_px + 2)) return std::nullopt;
+
+  // The anchor's neighbourhood carried to this view, linearized at the anchor's pixel:
+  // undistorted, through the plane's homography from the anchor's frame to now, and
+  // distorted again.
+  const cv::Matx33d h = plane.homography * anchor.reference_to_anchor.inv();
+  const cv::Vec3d carried = h * cv::Vec3d(anchor.ideal.x, anchor.ideal.y, 1.0);
+  if (!(carried[2] > 0)) return std::nullopt;
+  const double x = carried[0] / carried[2], y = carried[1] / carried[2];
+  const cv::Matx22d homography_jacobian(
+      (h(0, 0) - x * h(2, 0)) / carried[2], (h(0, 1) - x * h(2, 1)) / carried[2],
+      (h(1, 0) - y * h(2, 0)) / carried[2], (h(1, 1) - y * h(2, 1)) / carried[2]);
+  cv::Matx22d raw_from_ideal;
+  Raw(camera, {x, y}, &raw_from_ideal);
+  const cv::Matx22d now_from_anchor = raw_from_ideal * homography_jacobian * anchor.ideal_from_raw;
+  const double det = cv::determinant(now_from_anchor);
+  if (!(det > 0.25 && det < 4.0)) return std::nullopt;
+  const cv::Matx22d anchor_from_now = now_from_anchor.inv();
+
+  // The anchor patch resampled on this view's pixel grid around the point, one pixel
+  // wider than the window for the gradients. Every sample must come from the patch.
+  const int radius = PatchRadius(options_);
+  const int side = 2 * r + 3;
+  for (const cv::Vec2d& corner :
+       {cv::Vec2d(-1, -1), cv::Vec2d(1, -1), cv::Vec2d(-1, 1), cv::Vec2d(1, 1)}) {
+    const cv::Vec2d reach = anchor_from_now * ((r + 1) * corner);
+    if (std::abs(reach[0]) > radius - 1 || std::abs(reach[1]) > radius - 1) return std::nullopt;
+  }
+  const cv::Matx23d sample_at(anchor_from_now(0, 0), anchor_from_now(0, 1),
+                              radius - (anchor_from_now(0, 0) + anchor_from_now(0, 1)) * (r + 1),
+                              anchor_from_now(1, 0), anchor_from_now(1, 1),
+                              radius - (anchor_from_now(1, 0) + anchor_from_now(1, 1)) * (r + 1));
+  cv::warpAffine(anchor.patch, wide_, sample_at, cv::Size(side, side),
+                 cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+  const cv::Rect inner(1, 1, 2 * r + 1, 2 * r + 1);
+  // Zero mean and unit spread on both sides: the local equalization of each frame
+  // shifts and scales the grey levels of a patch as the view around it changes.
+  cv::Scalar mean, spread;
+  cv::meanStdDev(wide_(inner), mean, spread);
+  if (!(spread[0] > 1.0)) return std::nullopt;  // Too flat to place.
+  cv::subtract(wide_(inner), mean, template_);
+  template_ /= spread[0];
+  // Central differences (cv::Sobel costs more in setting up than in filtering a patch).
+  gx_.create(inner.size(), CV_32F);
+  gy_.create(inner.size(), CV_32F);
+  const float half_over_spread = float(0.5 / spread[0]);
+  for (int row = 0; row < inner.height; ++row) {
+    const float* above = wide_.ptr<float>(row);
+    const float* middle = wide_.ptr<float>(row + 1);
+    const float* below = wide_.ptr<float>(row + 2);
+    float* dx = gx_.ptr<float>(row);
+    float* dy = gy_.ptr<float>(row);
+    for (int col = 0; col < inner.width; ++col) {
+      dx[col] = half_over_spread * (middle[col + 2] - middle[col]);
+      dy[col] = half_over_spread * (below[col + 1] - above[col + 1]);
+    }
+  }
+  const cv::Mat& gx = gx_;
+  const cv::Mat& gy = gy_;
+  const double gxx = gx.dot(gx), gxy = gx.dot(gy), gyy = gy.dot(gy);
+  const double hessian_det = gxx * gyy - gxy * gxy;
+  if (!(hessian_det > 1e-6 * (gxx + gyy) * (gxx + gyy))) return std::nullopt;
+
+  // Inverse compositional Gauss-Newton on the translation.
+  cv::Point2f at = start;
+  const auto sample = [&] {
+    cv::getRectSubPix(image, cv::Size(2 * r + 1, 2 * r + 1), at, current_, CV_32F);
+    cv::meanStdDev(current_, mean, spread);
+    if (!(spread[0] > 1e-3)) return false;
+    current_ -= mean;
+    current_ /= spread[0];
+    return true;
+  };
+  for (int iteration = 0; iteration < options_.max_iterations; ++iteration) {
+    if (!sample()) return std::nullopt;
+    cv::subtract(current_, template_, difference_);
+    const double ex = gx.dot(difference_), ey = gy.dot(difference_);
+    const cv::Point2f step(float((gyy * ex - gxy * ey) / hessian_det),
+                           float((gxx * ey - gxy * ex) / hessian_det));
+    at -= step;
+    if (cv::norm(at - start) > options_.max_shift_px) return std::nullopt;
+    if (std::hypot(step.x, step.y) < options_.epsilon_px) break;
+  }
+  if (!sample()) return std::nullopt;
+  if (current_.dot(template_) / double(template_.total()) < options_.min_correlation) {
+    return std::nullopt;
+  }
+  return at;
+}
+
+std::vector<std::optional<cv::Point2f>> AnchoredTracks::Measure(const DominantPlane& plane,
+                                                                const cv::Mat& image,
+                                                                const CameraIntrinsics& camera) {
+  std::vector<std::optional<cv::Point2f>> measured(plane.track_ids.size());
+  for (size_t i = 0; i < plane.track_ids.size(); ++i) {
+    const cv::Point2f tracked = plane.points[i];
+    if (!options_.enabled) {
+      measured[i] = tracked;
+      continue;
+    }
+    const auto anchor = anchors_.find(plane.track_ids[i]);
+    if (anchor != anchors_.end() && anchor->second.plane == plane.id &&
+        anchor->second.reference_t_ns != plane.reference_t_ns &&
+        anchor->second.reference_t_ns == plane.previous_reference_t_ns) {
+      // The plane's homographies start from a later frame now.
+      anchor->second.reference_to_anchor =
+          anchor->second.reference_to_anchor * plane.previous_to_reference.inv();
+      anchor->second.reference_t_ns = plane.reference_t_ns;
+    }
+    if (anchor != anchors_.end() && anchor->second.plane == plane.id &&
+        anchor->second.reference_t_ns == plane.reference_t_ns) {
+      measured[i] = Align(anchor->second, plane, image, camera, tracked);
+      continue;
+    }
+    // New to the plane, or its homographies start from a frame unknown to the anchor:
+    // anchored afresh where the tracker has it.
+    if (auto taken = Take(plane, image, camera, tracked)) {
+      anchors_.insert_or_assign(plane.track_ids[i], std::move(*taken));
+      measured[i] = tracked;
+    } else {
+      anchors_.erase(plane.track_ids[i]);
+    }
+  }
+  return measured;
+}
+
+void AnchoredTracks::Keep(const std::vector<DominantPlane>& planes) {
+  std::set<int> held;
+  for (const DominantPlane& plane : planes)
+    held.insert(plane.track_ids.begin(), plane.track_ids.end());
+  std::erase_if(anchors_, [&](const auto& entry) { return !held.count(entry.first); });
+}
+
+}  // namespace autocal

@@ -1,0 +1,227 @@
+// Box 9's anchored measurement on known zooms of a simulated frame: box 5's
+// Lucas-Kanade tracks drift as the patch they follow grows, the anchored ones stay on the
+// point they started on; the anchors carry over when the plane moves its reference, and a
+// patch that no longer matches its anchor is not measured.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "devices/sim/simulator.h"
+#include "pipeline/anchored_tracks.h"
+#include "pipeline/flow.h"
+
+namespace autocal {
+namespace {
+
+// Frames are the middle 320x240 of a zoomed 640x480 office frame.
+const cv::Rect kCrop(160, 120, 320, 240);
+const cv::Point2d kCentre(159.5, 119.5);  // Of the zoom, in crop coordinates.
+constexpr double kZoomPerFrame = 1.02;
+
+const cv::Mat& Source() {
+  static const cv::Mat source = [] {
+    Scenario scenario = LoadScenario("office");
+    ApplyScenarioOverride(&scenario, "seconds", "0.1");
+    cv::Mat green;
+    cv::extractChannel(MakeSimulatedSequence(scenario)->LoadFrame(0), green, 1);
+    return green;
+  }();
+  return source;
+}
+
+double Zoom(int frame) { return std::pow(kZoomPerFrame, frame); }
+
+cv::Mat Zoomed(int frame) {
+  const cv::Point2f centre(float(kCrop.x + kCentre.x), float(kCrop.y + kCentre.y));
+  const cv::Mat m = cv::getRotationMatrix2D(centre, 0.0, Zoom(frame));
+  cv::Mat image;
+  cv::warpAffine(Source(), image, m, Source().size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  return image(kCrop).clone();
+}
+
+// Frame `from` -> frame `to`, pixels (there is no lens distortion).
+cv::Matx33d ZoomBetween(int from, int to) {
+  const double s = Zoom(to) / Zoom(from);
+  return {s, 0, kCentre.x * (1 - s), 0, s, kCentre.y * (1 - s), 0, 0, 1};
+}
+
+cv::Point2f Truth(cv::Point2f at_start, int from, int to) {
+  const double s = Zoom(to) / Zoom(from);
+  return {float(kCentre.x + s * (at_start.x - kCentre.x)),
+          float(kCentre.y + s * (at_start.y - kCentre.y))};
+}
+
+CameraIntrinsics Pinhole() {
+  CameraIntrinsics camera;
+  camera.width = 320;
+  camera.height = 240;
+  camera.fx = camera.fy = 300;
+  camera.cx = 159.5;
+  camera.cy = 119.5;
+  return camera;
+}
+
+int64_t FrameTime(int k) { return 1'000'000'000 + k * 33'333'333LL; }
+
+double Median(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+struct Errors {
+  std::vector<double> tracked, anchored;
+  size_t followed = 0;  // Tracks from frame 0 alive at the end.
+};
+
+// Tracks the zoom for `frames` frames with box 5, hands the tracks from frame 0 to the
+// anchors every third frame as one plane, and compares both with where the zoom put
+// each track's first point. From `rereference_at` on (if positive), the plane's
+// homographies start from that frame, as after PlaneTracker moves a plane's reference.
+Errors FollowZoom(int frames, int rereference_at) {
+  FlowTracker tracker;
+  AnchoredTracks anchors;
+  std::map<int, cv::Point2f> start;
+  Errors errors;
+  for (int k = 0; k <= frames; ++k) {
+    const cv::Mat frame = Zoomed(k);
+    tracker.Update(FrameTime(k), frame);
+    if (k == 0) {
+      for (const Track& t : tracker.tracks()) start[t.id] = t.current();
+    }
+    if (k % 3 != 0) continue;
+    DominantPlane plane;
+    plane.id = 1;
+    if (rereference_at > 0 && k >= rereference_at) {
+      plane.reference_t_ns = FrameTime(rereference_at);
+      plane.homography = ZoomBetween(rereference_at, k);
+      plane.previous_reference_t_ns = FrameTime(0);
+      plane.previous_to_reference = ZoomBetween(0, rereference_at);
+    } else {
+      plane.reference_t_ns = FrameTime(0);
+      plane.homography = ZoomBetween(0, k);
+    }
+    for (const Track& t : tracker.tracks()) {
+      if (!start.count(t.id)) continue;
+      plane.track_ids.push_back(t.id);
+      plane.points.push_back(t.current());
+    }
+    const auto measured = anchors.Measure(plane, frame, Pinhole());
+    anchors.Keep({plane});
+    if (k + 3 <= frames) continue;
+    errors.followed = plane.track_ids.size();
+    for (size_t i = 0; i < plane.track_ids.size(); ++i) {
+      const cv::Point2f truth = Truth(start[plane.track_ids[i]], 0, k);
+      errors.tracked.push_back(cv::norm(plane.points[i] - truth));
+      if (measured[i]) errors.anchored.push_back(cv::norm(*measured[i] - truth));
+    }
+  }
+  std::printf(
+      "zoom %.2f: %zu tracks followed, %zu anchored; median error tracked %.3f px, "
+      "anchored %.3f px\n",
+      Zoom(frames), errors.followed, errors.anchored.size(), Median(errors.tracked),
+      Median(errors.anchored));
+  return errors;
+}
+
+TEST(AnchorOptions, DefaultsAreValidAndFaultsAreNamed) {
+  std::string error;
+  EXPECT_TRUE(AnchorOptions().Check(&error)) << error;
+  auto fails_on = [](auto change, const std::string& field) {
+    AnchorOptions options;
+    change(&options);
+    std::string message;
+    EXPECT_FALSE(options.Check(&message)) << field;
+    EXPECT_NE(message.find(field), std::string::npos) << message;
+  };
+  fails_on([](AnchorOptions* o) { o->window_px = 14; }, "window_px");
+  fails_on([](AnchorOptions* o) { o->max_shift_px = 0; }, "max_shift_px");
+  fails_on([](AnchorOptions* o) { o->min_correlation = 1; }, "min_correlation");
+  fails_on([](AnchorOptions* o) { o->max_iterations = 0; }, "max_iterations");
+  fails_on([](AnchorOptions* o) { o->epsilon_px = 0; }, "epsilon_px");
+}
+
+// 24 frames zooming 2% each (the image grows by 61%): what a walk toward a wall does to
+// the patches box 5 follows.
+TEST(AnchoredTracks, StayOnTheirPointWhereTheTrackerDrifts) {
+  Errors errors = FollowZoom(24, 0);
+  ASSERT_GT(errors.followed, 100u);
+  EXPECT_GT(errors.anchored.size(), 0.9 * errors.followed) << "nearly every track measured";
+  ASSERT_GT(Median(errors.tracked), 0.15) << "the tracker drifts (else nothing is tested)";
+  EXPECT_LT(Median(errors.anchored), 0.05) << "median error, px";
+  std::sort(errors.anchored.begin(), errors.anchored.end());
+  EXPECT_LT(errors.anchored[errors.anchored.size() * 95 / 100], 0.15) << "95th percentile, px";
+}
+
+// The plane moves its reference to frame 12, by which the tracker has drifted: anchors
+// taken at frame 0 carry over instead of being taken again where the tracker has them.
+TEST(AnchoredTracks, CarryOverWhenThePlaneMovesItsReference) {
+  const Errors errors = FollowZoom(24, 12);
+  ASSERT_GT(errors.followed, 100u);
+  EXPECT_GT(errors.anchored.size(), 0.9 * errors.followed);
+  EXPECT_LT(Median(errors.anchored), 0.05) << "median error, px";
+}
+
+// Part of the view is covered by unrelated texture: the points under it are not
+// measured, the others are, where the zoom put them.
+TEST(AnchoredTracks, APatchThatNoLongerMatchesIsNotMeasured) {
+  DominantPlane plane;
+  plane.id = 3;
+  plane.reference_t_ns = FrameTime(0);
+  for (int y = 40; y <= 200; y += 20) {
+    for (int x = 40; x <= 280; x += 20) {
+      plane.track_ids.push_back(int(plane.points.size()));
+      plane.points.emplace_back(float(x), float(y));
+    }
+  }
+  const std::vector<cv::Point2f> at_start = plane.points;
+  AnchoredTracks anchors;
+  const auto first = anchors.Measure(plane, Zoomed(0), Pinhole());
+  for (size_t i = 0; i < first.size(); ++i) {
+    ASSERT_TRUE(first[i]);
+    EXPECT_EQ(*first[i], at_start[i]) << "anchored where the tracker has it";
+  }
+
+  const int k = 6;
+  cv::Mat frame = Zoomed(k);
+  const cv::Rect occluder(170, 60, 120, 120);
+  cv::Mat patch;
+  cv::flip(Source()(cv::Rect(20, 300, occluder.width, occluder.height)), patch, -1);
+  patch.copyTo(frame(occluder));
+  plane.homography = ZoomBetween(0, k);
+  int covered = 0, covered_measured = 0, clear = 0;
+  std::vector<double> clear_errors;
+  for (size_t i = 0; i < at_start.size(); ++i) {
+    // The tracker's position, half a pixel off the truth.
+    plane.points[i] = Truth(at_start[i], 0, k) + cv::Point2f(0.5f, -0.3f);
+  }
+  const auto measured = anchors.Measure(plane, frame, Pinhole());
+  const int margin = AnchorOptions().window_px / 2 + 4;
+  const cv::Rect inside(occluder.x + margin, occluder.y + margin, occluder.width - 2 * margin,
+                        occluder.height - 2 * margin);
+  const cv::Rect around(occluder.x - margin, occluder.y - margin, occluder.width + 2 * margin,
+                        occluder.height + 2 * margin);
+  for (size_t i = 0; i < at_start.size(); ++i) {
+    const cv::Point2f truth = Truth(at_start[i], 0, k);
+    if (inside.contains(truth)) {
+      ++covered;
+      covered_measured += measured[i].has_value();
+    } else if (!around.contains(truth) && truth.x > 12 && truth.y > 12 && truth.x < 307 &&
+               truth.y < 227) {
+      ++clear;
+      if (measured[i]) clear_errors.push_back(cv::norm(*measured[i] - truth));
+    }
+  }
+  ASSERT_GT(covered, 5);
+  EXPECT_EQ(covered_measured, 0) << "of " << covered << " points under the occluder";
+  EXPECT_GT(clear_errors.size(), 0.9 * clear) << "of " << clear << " points in the clear";
+  // Points on a grid, not on corners: some lie along an edge, placed less well.
+  EXPECT_LT(Median(clear_errors), 0.1) << "median error, px";
+  EXPECT_LT(*std::max_element(clear_errors.begin(), clear_errors.end()), 0.5) << "px";
+}
+
+}  // namespace
+}  // namespace autocal
