@@ -10,9 +10,9 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "devices/sim/simulator.h"
 #include "pipeline/anchored_tracks.h"
 #include "pipeline/flow.h"
+#include "tests/sim_test_util.h"
 
 namespace autocal {
 namespace {
@@ -22,24 +22,14 @@ const cv::Rect kCrop(160, 120, 320, 240);
 const cv::Point2d kCentre(159.5, 119.5);  // Of the zoom, in crop coordinates.
 constexpr double kZoomPerFrame = 1.02;
 
-const cv::Mat& Source() {
-  static const cv::Mat source = [] {
-    Scenario scenario = LoadScenario("office");
-    ApplyScenarioOverride(&scenario, "seconds", "0.1");
-    cv::Mat green;
-    cv::extractChannel(MakeSimulatedSequence(scenario)->LoadFrame(0), green, 1);
-    return green;
-  }();
-  return source;
-}
-
 double Zoom(int frame) { return std::pow(kZoomPerFrame, frame); }
 
 cv::Mat Zoomed(int frame) {
   const cv::Point2f centre(float(kCrop.x + kCentre.x), float(kCrop.y + kCentre.y));
   const cv::Mat m = cv::getRotationMatrix2D(centre, 0.0, Zoom(frame));
   cv::Mat image;
-  cv::warpAffine(Source(), image, m, Source().size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  cv::warpAffine(test::OfficeGreen(), image, m, test::OfficeGreen().size(), cv::INTER_LINEAR,
+                 cv::BORDER_REFLECT);
   return image(kCrop).clone();
 }
 
@@ -189,7 +179,7 @@ TEST(AnchoredTracks, APatchThatNoLongerMatchesIsNotMeasured) {
   cv::Mat frame = Zoomed(k);
   const cv::Rect occluder(170, 60, 120, 120);
   cv::Mat patch;
-  cv::flip(Source()(cv::Rect(20, 300, occluder.width, occluder.height)), patch, -1);
+  cv::flip(test::OfficeGreen()(cv::Rect(20, 300, occluder.width, occluder.height)), patch, -1);
   patch.copyTo(frame(occluder));
   plane.homography = ZoomBetween(0, k);
   int covered = 0, covered_measured = 0, clear = 0;

@@ -9,8 +9,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "devices/sim/simulator.h"
 #include "pipeline/flow.h"
+#include "tests/sim_test_util.h"
 
 namespace autocal {
 namespace {
@@ -18,17 +18,6 @@ namespace {
 // Frames are the middle 320x240 of a warped 640x480 office frame, so the warp never
 // shows the border.
 const cv::Rect kCrop(160, 120, 320, 240);
-
-const cv::Mat& Source() {
-  static const cv::Mat source = [] {
-    Scenario scenario = LoadScenario("office");
-    ApplyScenarioOverride(&scenario, "seconds", "0.1");
-    cv::Mat green;
-    cv::extractChannel(MakeSimulatedSequence(scenario)->LoadFrame(0), green, 1);
-    return green;
-  }();
-  return source;
-}
 
 // The source turned by `angle_deg` about the crop's centre and shifted by `shift`,
 // cropped; `warp` is the map from frame-0 crop coordinates to this frame's.
@@ -38,7 +27,8 @@ cv::Mat Warped(double angle_deg, cv::Point2d shift, cv::Matx23d* warp) {
   m.at<double>(0, 2) += shift.x;
   m.at<double>(1, 2) += shift.y;
   cv::Mat image;
-  cv::warpAffine(Source(), image, m, Source().size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  cv::warpAffine(test::OfficeGreen(), image, m, test::OfficeGreen().size(), cv::INTER_LINEAR,
+                 cv::BORDER_REFLECT);
   // Crop coordinates: add the crop's corner, warp, take it away again.
   const cv::Matx23d source_warp(m);
   const cv::Vec2d corner(kCrop.x, kCrop.y);
@@ -161,7 +151,7 @@ TEST(FlowTracker, ForwardBackwardCheckDropsTracksOnAnOccluder) {
     cv::Mat frame = Warped(0.0, {1.6, 0.7}, &warp1);
     // Texture from elsewhere in the source, flipped: as textured as the scene, unrelated.
     cv::Mat patch;
-    cv::flip(Source()(cv::Rect(20, 300, occluder.width, occluder.height)), patch, -1);
+    cv::flip(test::OfficeGreen()(cv::Rect(20, 300, occluder.width, occluder.height)), patch, -1);
     patch.copyTo(frame(occluder));
     tracker->Advance(FrameTime(1), frame);
     EXPECT_EQ(tracker->died(), int(start.size() - tracker->tracks().size()));
@@ -235,7 +225,7 @@ TEST(FlowTracker, HistoryLookUpAndRestartOnANewImageSize) {
   const int oldest_id = t.id;
   tracker.Update(FrameTime(5), cv::Mat(100, 120, CV_8U, cv::Scalar(0)));
   EXPECT_TRUE(tracker.tracks().empty()) << "a blank frame of another size: nothing to track";
-  tracker.Update(FrameTime(6), Source()(cv::Rect(0, 0, 120, 100)).clone());
+  tracker.Update(FrameTime(6), test::OfficeGreen()(cv::Rect(0, 0, 120, 100)).clone());
   ASSERT_FALSE(tracker.tracks().empty());
   EXPECT_GT(tracker.tracks().front().id, oldest_id) << "ids are never reused";
 }

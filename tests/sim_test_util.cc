@@ -2,6 +2,9 @@
 
 #include <cmath>
 
+#include <opencv2/core.hpp>
+
+#include "devices/sim/simulator.h"
 #include "devices/sim/trajectory.h"
 
 namespace autocal::test {
@@ -21,6 +24,17 @@ Eigen::Isometry3d LookingAt(const Eigen::Vector3d& target, double distance_m, do
        Eigen::AngleAxisd(roll_deg * M_PI / 180.0, Eigen::Vector3d::UnitX()))
           .toRotationMatrix();
   return Pose(world_from_body * BodyFromCam(), target - distance_m * world_from_body.col(0));
+}
+
+const cv::Mat& OfficeGreen() {
+  static const cv::Mat green = [] {
+    Scenario scenario = LoadScenario("office");
+    ApplyScenarioOverride(&scenario, "seconds", "0.1");
+    cv::Mat channel;
+    cv::extractChannel(MakeSimulatedSequence(scenario)->LoadFrame(0), channel, 1);
+    return channel;
+  }();
+  return green;
 }
 
 }  // namespace autocal::test
