@@ -1,8 +1,11 @@
 // Box 9, measurement: the material of a calibration attempt over a sliding window of views.
-// Each plane's observations are the pixels of its REAL tracks in the raw image, as box 5
-// measured them, never the virtual board rendered with the current calibration (DESIGN.md,
-// "The one trap"); straight lines are the snake shapes box 1 pooled; gravity is what box 7
-// measured at rest, not what it carried through vision's rotations.
+// Each plane's observations are the pixels of its REAL tracks in the raw image, measured
+// against the patch each was first seen with (AnchoredTracks), never the virtual board
+// rendered with the current calibration (DESIGN.md, "The one trap"): the patch is shaped
+// by the plane's homography between the tracks, the calibration only linearizing it, so
+// a wrong calibration bends the patch a little but does not move it (the walks from a
+// wrong start converge). Straight lines are the snake shapes box 1 pooled; gravity is
+// what box 7 measured at rest, not what it carried through vision's rotations.
 #pragma once
 
 #include <cstdint>

@@ -81,10 +81,11 @@ TEST(CalibrationEndToEnd, SonnarConvergesFromAWrongStart) { ExpectConvergesFromA
 
 TEST(CalibrationEndToEnd, TessarConvergesFromAWrongStart) { ExpectConvergesFromAWrongStart("tessar"); }
 
-// The issue asks fx within 0.5% of the drifting truth and cx, cy within 2 px. Measured
-// worst after convergence: fx -0.39% (sonnar) and -0.38% (tessar), cx 0.94 and 1.20 px;
-// box 10's single attempts run 0.3% low on the first seconds of this walk (track drift,
-// docs/calibration.md), so fy, which the issue does not name here, is held to 0.75%.
+// The issue asks fx within 0.5% of the drifting truth and cx, cy within 2 px; fy is held
+// to the same. Measured worst after convergence: fx -0.25% (sonnar) and -0.23% (tessar),
+// fy -0.24% and -0.22%, cx 0.97 and 0.94 px (before box 9 measured the tracks against
+// their anchors: fx -0.39% and -0.38%, fy up to 0.75%, the attempts 0.3% low on the first
+// seconds from the tracks' drift).
 void ExpectFollowsDrift(const std::string& lens) {
   const ScenarioRun run = RunScenario("drift,lens=" + lens + ",seconds=20");
   ASSERT_TRUE(run.report.truth);
@@ -96,7 +97,7 @@ void ExpectFollowsDrift(const std::string& lens) {
   ASSERT_TRUE(truth.worst_after_convergence);
   const CalibrationError& worst = *truth.worst_after_convergence;
   EXPECT_LT(std::abs(worst.fx_percent), 0.5) << "fx follows the drifting truth";
-  EXPECT_LT(std::abs(worst.fy_percent), 0.75) << "fy follows the drifting truth";
+  EXPECT_LT(std::abs(worst.fy_percent), 0.5) << "fy follows the drifting truth";
   EXPECT_LT(std::abs(worst.cx_px), 2.0) << "cx within 2 px of the drifting truth";
   EXPECT_LT(std::abs(worst.cy_px), 2.0) << "cy within 2 px of the drifting truth";
   EXPECT_LT(std::abs(truth.final.fx_percent), 0.5) << "fx within 0.5% at the end";
@@ -147,8 +148,9 @@ TEST(CalibrationEndToEnd, TessarCatchesAJolt) { ExpectCatchesAJolt("tessar"); }
 // output stay within 0.2% of the truth. Box 9's image-quality gate finds the unfit frames,
 // and every attempt from the burst's start until a window is clean of them is no update,
 // with that reason. Asserted: that, no alarm and no new regime, the output moves less than
-// 0.2% across the burst and stays within 0.5% of the truth (box 10 runs 0.3% low on the
-// first seconds of this walk).
+// 0.2% across the burst and stays within 0.2% of the truth throughout (measured: 0.031%
+// sonnar, 0.155% tessar; 0.26-0.37% before box 9 measured the tracks against their
+// anchors, when this was held to 0.5%).
 void ExpectRidesOutATransient(const std::string& lens) {
   const std::string spec = "transient,lens=" + lens + ",seconds=16";
   const ScenarioRun run = RunScenario(spec);
@@ -176,7 +178,7 @@ void ExpectRidesOutATransient(const std::string& lens) {
   double moved = 0.0;
   for (size_t i = 0; i < truth.t_ns.size(); ++i) {
     const double t = 1e-9 * double(truth.t_ns[i] - t0);
-    EXPECT_LT(std::abs(truth.errors[i].fx_percent), 0.5)
+    EXPECT_LT(std::abs(truth.errors[i].fx_percent), 0.2)
         << "the output near the truth, at " << t << " s";
     if (t < burst_start) before = truth.errors[i].fx_percent;
     if (before && t >= burst_start && t <= burst_end + MaterialOptions{}.window_s) {
