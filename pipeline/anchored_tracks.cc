@@ -32,7 +32,11 @@ AnchoredTracks::AnchoredTracks(const AnchorOptions& options) : options_(options)
 namespace {
 
 // The anchor's patch reaches this far around its pixel: room for the plane to shrink to
-// half its size in the image before the warped window runs off it.
+// half its size in the image before the warped window runs off it. Tracks nearer the
+// border than that are not anchored (nor measured): anchoring them with what of the patch
+// the image holds, down to 9 px from the border, made the sixteen 10 s walks worse at
+// 320x240 (mean final |fx error| 0.10 -> 0.14%, distortion 0.12 -> 0.15 px), the lens
+// bending the patch too much there for one linearization.
 int PatchRadius(const AnchorOptions& options) { return options.window_px + 2; }
 
 bool Inside(const cv::Mat& image, cv::Point2f p, double margin) {
