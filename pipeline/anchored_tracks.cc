@@ -29,6 +29,11 @@ bool AnchorOptions::Check(std::string* error) const {
 
 AnchoredTracks::AnchoredTracks(const AnchorOptions& options) : options_(options) {}
 
+void AnchoredTracks::set_options(const AnchorOptions& options) {
+  if (options.window_px != options_.window_px) anchors_.clear();
+  options_ = options;
+}
+
 namespace {
 
 // The anchor's patch reaches this far around its pixel: room for the plane to shrink to

@@ -49,7 +49,9 @@ class AnchoredTracks {
   // Drops the anchors of tracks no plane holds any more; call after each view's Measure.
   void Keep(const std::vector<DominantPlane>& planes);
 
-  void set_options(const AnchorOptions& options) { options_ = options; }
+  // A new window size drops the anchors (their patches are cut for the old one); they are
+  // taken again at the next view.
+  void set_options(const AnchorOptions& options);
 
  private:
   struct Anchor {

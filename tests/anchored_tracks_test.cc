@@ -155,6 +155,30 @@ TEST(AnchoredTracks, CarryOverWhenThePlaneMovesItsReference) {
   EXPECT_LT(Median(errors.anchored), 0.05) << "median error, px";
 }
 
+// A larger window needs a larger patch around each anchor: changing it (the workbench's
+// threshold panel may, mid-run) takes the anchors again where the tracker has the tracks.
+TEST(AnchoredTracks, ANewWindowSizeTakesTheAnchorsAgain) {
+  DominantPlane plane;
+  plane.id = 4;
+  plane.reference_t_ns = FrameTime(0);
+  plane.track_ids = {0, 1};
+  plane.points = {cv::Point2f(100, 100), cv::Point2f(200, 150)};
+  AnchoredTracks anchors;
+  anchors.Measure(plane, Zoomed(0), Pinhole());
+  const int k = 3;
+  plane.homography = ZoomBetween(0, k);
+  const cv::Point2f off(0.7f, -0.5f);  // The tracker's drift.
+  plane.points = {Truth({100, 100}, 0, k) + off, Truth({200, 150}, 0, k) + off};
+  AnchorOptions wider;
+  wider.window_px = 21;
+  anchors.set_options(wider);
+  const auto retaken = anchors.Measure(plane, Zoomed(k), Pinhole());
+  for (size_t i = 0; i < plane.points.size(); ++i) {
+    ASSERT_TRUE(retaken[i]);
+    EXPECT_EQ(*retaken[i], plane.points[i]) << "anchored afresh where the tracker has it";
+  }
+}
+
 // Part of the view is covered by unrelated texture: the points under it are not
 // measured, the others are, where the zoom put them.
 TEST(AnchoredTracks, APatchThatNoLongerMatchesIsNotMeasured) {
