@@ -1,7 +1,8 @@
 // Box 9's anchored measurement on known zooms of a simulated frame: box 5's
 // Lucas-Kanade tracks drift as the patch they follow grows, the anchored ones stay on the
-// point they started on; the anchors carry over when the plane moves its reference, and a
-// patch that no longer matches its anchor is not measured.
+// point they started on; the anchors carry over when the plane moves its reference, are
+// taken again for a new window size, and a patch that no longer matches its anchor is not
+// measured.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -58,6 +59,7 @@ CameraIntrinsics Pinhole() {
 int64_t FrameTime(int k) { return 1'000'000'000 + k * 33'333'333LL; }
 
 double Median(std::vector<double> values) {
+  if (values.empty()) return std::nan("");
   std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
   return values[values.size() / 2];
 }
