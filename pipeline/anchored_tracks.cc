@@ -68,14 +68,14 @@ std::optional<AnchoredTracks::Anchor> AnchoredTracks::Take(const DominantPlane& 
                                                            cv::Point2f pixel) const {
   const int radius = PatchRadius(options_);
   if (!Inside(image, pixel, radius + 1)) return std::nullopt;
-  const auto ray = Unproject(camera, Eigen::Vector2d(pixel.x, pixel.y));
-  if (!ray) return std::nullopt;
+  const auto ideal = UndistortPixel(camera, Eigen::Vector2d(pixel.x, pixel.y));
+  if (!ideal) return std::nullopt;
   Anchor anchor;
   anchor.plane = plane.id;
   anchor.reference_t_ns = plane.reference_t_ns;
   anchor.reference_to_anchor = plane.homography;
   anchor.pixel = pixel;
-  anchor.ideal = {camera.fx * ray->x() + camera.cx, camera.fy * ray->y() + camera.cy};
+  anchor.ideal = {ideal->x(), ideal->y()};
   cv::Matx22d raw_from_ideal;
   Raw(camera, anchor.ideal, &raw_from_ideal);
   anchor.ideal_from_raw = raw_from_ideal.inv();
@@ -188,19 +188,18 @@ std::vector<std::optional<cv::Point2f>> AnchoredTracks::Measure(const DominantPl
       measured[i] = tracked;
       continue;
     }
-    const auto anchor = anchors_.find(plane.track_ids[i]);
-    if (anchor != anchors_.end() && anchor->second.plane == plane.id &&
-        anchor->second.reference_t_ns != plane.reference_t_ns &&
-        anchor->second.reference_t_ns == plane.previous_reference_t_ns) {
-      // The plane's homographies start from a later frame now.
-      anchor->second.reference_to_anchor =
-          anchor->second.reference_to_anchor * plane.previous_to_reference.inv();
-      anchor->second.reference_t_ns = plane.reference_t_ns;
-    }
-    if (anchor != anchors_.end() && anchor->second.plane == plane.id &&
-        anchor->second.reference_t_ns == plane.reference_t_ns) {
-      measured[i] = Align(anchor->second, plane, image, camera, tracked);
-      continue;
+    const auto found = anchors_.find(plane.track_ids[i]);
+    if (found != anchors_.end() && found->second.plane == plane.id) {
+      Anchor& anchor = found->second;
+      if (anchor.reference_t_ns == plane.previous_reference_t_ns) {
+        // The plane's homographies start from a later frame now.
+        anchor.reference_to_anchor = anchor.reference_to_anchor * plane.previous_to_reference.inv();
+        anchor.reference_t_ns = plane.reference_t_ns;
+      }
+      if (anchor.reference_t_ns == plane.reference_t_ns) {
+        measured[i] = Align(anchor, plane, image, camera, tracked);
+        continue;
+      }
     }
     // New to the plane, or its homographies start from a frame unknown to the anchor:
     // anchored afresh where the tracker has it.

@@ -140,4 +140,11 @@ std::optional<Eigen::Vector2d> Unproject(const CameraIntrinsics& camera,
   return UndistortNormalized(camera.Distortion(), distorted);
 }
 
+std::optional<Eigen::Vector2d> UndistortPixel(const CameraIntrinsics& camera,
+                                              const Eigen::Vector2d& raw) {
+  const std::optional<Eigen::Vector2d> ray = Unproject(camera, raw);
+  if (!ray) return std::nullopt;
+  return Eigen::Vector2d(camera.fx * ray->x() + camera.cx, camera.fy * ray->y() + camera.cy);
+}
+
 }  // namespace autocal

@@ -118,4 +118,9 @@ std::optional<Eigen::Vector2d> UndistortNormalized(
 std::optional<Eigen::Vector2d> Unproject(const CameraIntrinsics& camera,
                                          const Eigen::Vector2d& pixel);
 
+// The undistorted pixel of a raw one: where the camera matrix alone would image its ray
+// (the rectified image's pixel). Nothing beyond the fold of a strong barrel.
+std::optional<Eigen::Vector2d> UndistortPixel(const CameraIntrinsics& camera,
+                                              const Eigen::Vector2d& raw);
+
 }  // namespace autocal

@@ -20,9 +20,7 @@ class PixelMap {
 
   std::optional<Eigen::Vector2d> operator()(const Eigen::Vector2d& raw) const {
     if (space_ == OverlaySpace::kRaw) return raw;
-    const std::optional<Eigen::Vector2d> ray = Unproject(camera_, raw);
-    if (!ray) return std::nullopt;
-    return Eigen::Vector2d(camera_.fx * ray->x() + camera_.cx, camera_.fy * ray->y() + camera_.cy);
+    return UndistortPixel(camera_, raw);
   }
   // Every point that maps; into rectified space a straight raw segment is sampled every
   // `step_px` first, since undistortion bends it.

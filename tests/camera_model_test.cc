@@ -107,6 +107,24 @@ TEST_P(CameraModelTest, UnprojectAgreesWithOpenCv) {
   EXPECT_LT(worst, 1e-6) << "worst disagreement with cv::undistortPoints, px";
 }
 
+// The undistorted pixel is OpenCV's with the camera matrix as the new projection.
+TEST_P(CameraModelTest, UndistortPixelAgreesWithOpenCv) {
+  const CameraIntrinsics& camera = GetParam().camera;
+  const std::vector<cv::Point2d> pixels = PixelGrid(camera, 40);
+  std::vector<cv::Point2d> expected;
+  cv::undistortPoints(
+      pixels, expected, CvCameraMatrix(camera), CvDistortion(camera), cv::noArray(),
+      CvCameraMatrix(camera),
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 1000, 1e-15));
+  double worst = 0.0;
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const auto ours = UndistortPixel(camera, {pixels[i].x, pixels[i].y});
+    ASSERT_TRUE(ours.has_value()) << pixels[i];
+    worst = std::max(worst, (*ours - Eigen::Vector2d(expected[i].x, expected[i].y)).norm());
+  }
+  EXPECT_LT(worst, 1e-6) << "worst disagreement with cv::undistortPoints, px";
+}
+
 TEST_P(CameraModelTest, UnprojectInvertsProjectTo1e9) {
   const CameraIntrinsics& camera = GetParam().camera;
   double worst = 0.0;
