@@ -619,9 +619,10 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   // Strictly descending steps. Non-monotonic ones took a third less time on the simulated
   // walks but wandered off on real shots (OpenCV's left*.jpg: fx +6.7% after 100
   // iterations instead of -0.02% after 8; tests/self_calibration_real_test.cc).
-  // The points are eliminated; what is left (the intrinsics, 6 per view and per plane) is
-  // a couple of hundred columns and nearly full, so a dense factor beats a sparse one's
-  // bookkeeping: 8-19% off a solve (kernels_bench), the same result to 1e-10.
+  // The points are eliminated; what is left (the intrinsics, 6 per view and per plane:
+  // about 150 columns on a 2 s window, most views sharing tracks) is nearly full, so a
+  // dense factor beats a sparse one's bookkeeping: 8-19% off a solve (kernels_bench), the
+  // same result to 1e-10.
   solver_options.linear_solver_type = ceres::DENSE_SCHUR;
   solver_options.linear_solver_ordering.reset(ordering);
   solver_options.max_num_iterations = options.max_iterations;
