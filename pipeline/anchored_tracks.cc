@@ -49,15 +49,15 @@ bool Inside(const cv::Mat& image, cv::Point2f p, double margin) {
          p.y <= image.rows - 1 - margin;
 }
 
-// Raw pixel of an undistorted one (the camera matrix alone), with its Jacobian.
-cv::Point2d Raw(const CameraIntrinsics& camera, cv::Point2d ideal, cv::Matx22d* raw_from_ideal) {
+// Jacobian of the raw pixel with respect to the undistorted one (the camera matrix alone)
+// at `ideal`.
+cv::Matx22d RawFromIdeal(const CameraIntrinsics& camera, cv::Point2d ideal) {
   const auto packed = camera.Packed();
   double pixel[2], by_normalized[4];
   ProjectNormalized(packed.data(), (ideal.x - camera.cx) / camera.fx,
                     (ideal.y - camera.cy) / camera.fy, pixel, nullptr, by_normalized);
-  *raw_from_ideal = cv::Matx22d(by_normalized[0] / camera.fx, by_normalized[1] / camera.fy,
-                                by_normalized[2] / camera.fx, by_normalized[3] / camera.fy);
-  return {pixel[0], pixel[1]};
+  return {by_normalized[0] / camera.fx, by_normalized[1] / camera.fy, by_normalized[2] / camera.fx,
+          by_normalized[3] / camera.fy};
 }
 
 }  // namespace
@@ -74,11 +74,8 @@ std::optional<AnchoredTracks::Anchor> AnchoredTracks::Take(const DominantPlane& 
   anchor.plane = plane.id;
   anchor.reference_t_ns = plane.reference_t_ns;
   anchor.reference_to_anchor = plane.homography;
-  anchor.pixel = pixel;
   anchor.ideal = {ideal->x(), ideal->y()};
-  cv::Matx22d raw_from_ideal;
-  Raw(camera, anchor.ideal, &raw_from_ideal);
-  anchor.ideal_from_raw = raw_from_ideal.inv();
+  anchor.ideal_from_raw = RawFromIdeal(camera, anchor.ideal).inv();
   cv::getRectSubPix(image, cv::Size(2 * radius + 1, 2 * radius + 1), pixel, anchor.patch, CV_32F);
   return anchor;
 }
@@ -100,9 +97,8 @@ std::optional<cv::Point2f> AnchoredTracks::Align(const Anchor& anchor, const Dom
   const cv::Matx22d homography_jacobian(
       (h(0, 0) - x * h(2, 0)) / carried[2], (h(0, 1) - x * h(2, 1)) / carried[2],
       (h(1, 0) - y * h(2, 0)) / carried[2], (h(1, 1) - y * h(2, 1)) / carried[2]);
-  cv::Matx22d raw_from_ideal;
-  Raw(camera, {x, y}, &raw_from_ideal);
-  const cv::Matx22d now_from_anchor = raw_from_ideal * homography_jacobian * anchor.ideal_from_raw;
+  const cv::Matx22d now_from_anchor =
+      RawFromIdeal(camera, {x, y}) * homography_jacobian * anchor.ideal_from_raw;
   const double det = cv::determinant(now_from_anchor);
   if (!(det > 0.25 && det < 4.0)) return std::nullopt;
   const cv::Matx22d anchor_from_now = now_from_anchor.inv();
@@ -145,9 +141,7 @@ std::optional<cv::Point2f> AnchoredTracks::Align(const Anchor& anchor, const Dom
       dy[col] = half_over_spread * (below[col + 1] - above[col + 1]);
     }
   }
-  const cv::Mat& gx = gx_;
-  const cv::Mat& gy = gy_;
-  const double gxx = gx.dot(gx), gxy = gx.dot(gy), gyy = gy.dot(gy);
+  const double gxx = gx_.dot(gx_), gxy = gx_.dot(gy_), gyy = gy_.dot(gy_);
   const double hessian_det = gxx * gyy - gxy * gxy;
   if (!(hessian_det > 1e-6 * (gxx + gyy) * (gxx + gyy))) return std::nullopt;
 
@@ -164,7 +158,7 @@ std::optional<cv::Point2f> AnchoredTracks::Align(const Anchor& anchor, const Dom
   for (int iteration = 0; iteration < options_.max_iterations; ++iteration) {
     if (!sample()) return std::nullopt;
     cv::subtract(current_, template_, difference_);
-    const double ex = gx.dot(difference_), ey = gy.dot(difference_);
+    const double ex = gx_.dot(difference_), ey = gy_.dot(difference_);
     const cv::Point2f step(float((gyy * ex - gxy * ey) / hessian_det),
                            float((gxx * ey - gxy * ex) / hessian_det));
     at -= step;

@@ -58,8 +58,7 @@ class AnchoredTracks {
     int plane = 0;
     int64_t reference_t_ns = 0;
     cv::Matx33d reference_to_anchor;  // The plane's homography when the anchor was taken.
-    cv::Point2f pixel;                // Raw pixel the patch is centred on...
-    cv::Point2d ideal;                // ...undistorted,
+    cv::Point2d ideal;                // Undistorted pixel the patch is centred on,
     cv::Matx22d ideal_from_raw;       // and the undistortion's Jacobian there.
     cv::Mat patch;                    // CV_32F around it, wide enough to warp from.
   };
