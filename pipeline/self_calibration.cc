@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <set>
 #include <sstream>
 
 #include <ceres/ceres.h>
@@ -39,6 +40,8 @@ bool SelfCalibrationOptions::Check(std::string* error) const {
     why << "function_tolerance must be between 0 and 1";
   } else if (!(warm_start_max_median_px > 0)) {
     why << "warm_start_max_median_px must be positive";
+  } else if (!(max_point_rms_ratio == 0 || max_point_rms_ratio >= 1)) {
+    why << "max_point_rms_ratio must be 0 (none left out) or at least 1";
   }
   if (why.str().empty()) return true;
   if (error) *error = why.str();
@@ -637,6 +640,51 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   ceres::Solve(solver_options, &problem, &summary);
   if (!summary.IsSolutionUsable()) return no_update("the solver failed: " + summary.BriefReport());
   result.iterations = int(summary.iterations.size()) - 1;
+
+  // Points that fit far worse than the rest are left out and the solve goes on from where
+  // it stopped. The Cauchy loss hardly discounts them: they are off by a few tenths of a
+  // pixel in a consistent way, not by pixels.
+  if (options.max_point_rms_ratio > 0) {
+    std::map<std::pair<int, int>, std::pair<double, int>> by_point;  // Squared sum, count.
+    for (const Residual& r : residuals) {
+      double e[2];
+      PlanePointCost(r.pixel).Residual(intrinsics_block, frame_blocks[r.frame],
+                                       plane_blocks[r.plane], point_blocks[r.plane].at(r.point), e);
+      auto& [sum_sq, count] = by_point[{r.plane, r.point}];
+      sum_sq += e[0] * e[0] + e[1] * e[1];
+      ++count;
+    }
+    std::vector<double> mean_sq;
+    for (const auto& [point, sum] : by_point) mean_sq.push_back(sum.first / sum.second);
+    std::nth_element(mean_sq.begin(), mean_sq.begin() + mean_sq.size() / 2, mean_sq.end());
+    const double limit_sq = std::pow(options.max_point_rms_ratio, 2) * mean_sq[mean_sq.size() / 2];
+    std::set<std::pair<int, int>> left_out;
+    for (const auto& [point, sum] : by_point) {
+      const auto& [plane, id] = point;
+      // The two points that fix the plane's frame stay.
+      const bool gauge = id == plane_points[plane].begin()->first ||
+                         id == std::next(plane_points[plane].begin())->first;
+      if (sum.first / sum.second > limit_sq && !gauge) left_out.insert(point);
+    }
+    if (!left_out.empty()) {
+      for (const auto& [plane, id] : left_out) {
+        double* const block = point_blocks[plane].at(id);
+        ordering->Remove(block);
+        problem.RemoveParameterBlock(block);
+        plane_points[plane].erase(id);
+      }
+      std::erase_if(residuals, [&](const Residual& r) {
+        return left_out.count({r.plane, r.point}) > 0;
+      });
+      result.points_used -= int(left_out.size());
+      result.observations_used = int(residuals.size());
+      ceres::Solve(solver_options, &problem, &summary);
+      if (!summary.IsSolutionUsable()) {
+        return no_update("the solver failed: " + summary.BriefReport());
+      }
+      result.iterations += int(summary.iterations.size()) - 1;
+    }
+  }
   std::copy_n(intrinsics_block, kNumIntrinsics, intrinsics.begin());
   for (int f : posed) std::copy_n(frame_blocks[f], 6, frame_poses[f].begin());
   for (size_t p = 0; p < tracks.size(); ++p) {
