@@ -678,6 +678,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
       });
       result.points_used -= int(left_out.size());
       result.observations_used = int(residuals.size());
+      // Going on from where it stopped: with the step size it ended with, not from scratch.
+      solver_options.initial_trust_region_radius = summary.iterations.back().trust_region_radius;
       ceres::Solve(solver_options, &problem, &summary);
       if (!summary.IsSolutionUsable()) {
         return no_update("the solver failed: " + summary.BriefReport());
