@@ -96,9 +96,9 @@ struct SelfCalibrationOptions {
   // After the solve, a point whose reprojection RMS over its views exceeds this many times
   // the median point's is left out and the solve goes on without it; 0: none left out.
   // They are mostly tracks held by the wrong plane (ceiling tracks by a wall's plane, by
-  // the corner where the two meet) and tracks whose patch the walk deformed: on the
-  // 320x240 walks they are 3-5% of the points, and with them the attempts' fx scattered by
-  // 0.5-0.9% (RMS against the truth), without them by 0.35-0.55%.
+  // the corner where the two meet) and tracks whose patch the walk deformed: 2-8% of the
+  // points on the 320x240 walks. With them the attempts' fx scattered by 0.5-0.9% (RMS
+  // against the truth), without them by 0.35-0.55% (docs/calibration.md).
   double max_point_rms_ratio = 3.0;
 
   bool Check(std::string* error) const;
