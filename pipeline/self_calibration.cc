@@ -26,6 +26,8 @@ bool SelfCalibrationOptions::Check(std::string* error) const {
   } else if (!(prior_focal_fraction > 0) || !(prior_principal_px > 0) || !(prior_distortion > 0)) {
     why << "prior sigmas (prior_focal_fraction, prior_principal_px, prior_distortion) must be "
            "positive";
+  } else if (!(prior_track_noise_px > 0)) {
+    why << "prior_track_noise_px must be positive";
   } else if (min_frames < 3) {
     why << "min_frames must be at least 3";
   } else if (min_points_per_plane < 6) {
@@ -604,11 +606,12 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
 
   // The weak prior on the free intrinsics.
   std::array<double, kNumIntrinsics> weight{};
-  weight[kFx] = 1.0 / (options.prior_focal_fraction * prior.fx);
-  weight[kFy] = 1.0 / (options.prior_focal_fraction * prior.fy);
-  weight[kCx] = weight[kCy] = 1.0 / options.prior_principal_px;
+  const double noise_px = options.prior_track_noise_px;
+  weight[kFx] = noise_px / (options.prior_focal_fraction * prior.fx);
+  weight[kFy] = noise_px / (options.prior_focal_fraction * prior.fy);
+  weight[kCx] = weight[kCy] = noise_px / options.prior_principal_px;
   weight[kK1] = weight[kK2] = weight[kP1] = weight[kP2] = weight[kK3] =
-      1.0 / options.prior_distortion;
+      noise_px / options.prior_distortion;
   for (int i : fixed) weight[i] = 0.0;
   problem.AddResidualBlock(
       new ceres::AutoDiffCostFunction<PriorCost, kNumIntrinsics, kNumIntrinsics>(
