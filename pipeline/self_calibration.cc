@@ -505,17 +505,23 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
                                              plane_poses[r.plane].data(),
                                              plane_points[r.plane][r.point].data(), e);
   });
+  // A residual's reprojection error (px) at the values in the arrays (not the solver's
+  // blocks: copy_out below brings those back).
+  const auto error_px = [&](const Residual& r) {
+    Eigen::Vector2d e;
+    PlanePointCost(r.pixel).Residual(intrinsics.data(), frame_poses[r.frame].data(),
+                                     plane_poses[r.plane].data(),
+                                     plane_points[r.plane][r.point].data(), e.data());
+    return e;
+  };
   // The reference view holds the world still; a start that leaves it without a point it
   // sees (its anchor plane new to this window) is of no use, nor one that does not fit
   // the window's tracks.
   const auto median_error_px = [&] {
     std::vector<double> errors;
     for (const Residual& r : residuals) {
-      double e[2];
-      PlanePointCost(r.pixel).Residual(intrinsics.data(), frame_poses[r.frame].data(),
-                                       plane_poses[r.plane].data(),
-                                       plane_points[r.plane][r.point].data(), e);
-      errors.push_back(std::hypot(e[0], e[1]));
+      const Eigen::Vector2d e = error_px(r);
+      errors.push_back(std::hypot(e.x(), e.y()));
     }
     std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
     return errors[errors.size() / 2];
@@ -652,17 +658,23 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   ceres::Solve(solver_options, &problem, &summary);
   if (!summary.IsSolutionUsable()) return no_update("the solver failed: " + summary.BriefReport());
   result.iterations = int(summary.iterations.size()) - 1;
+  const auto copy_out = [&] {
+    std::copy_n(intrinsics_block, kNumIntrinsics, intrinsics.begin());
+    for (int f : posed) std::copy_n(frame_blocks[f], 6, frame_poses[f].begin());
+    for (size_t p = 0; p < tracks.size(); ++p) {
+      std::copy_n(plane_blocks[p], 6, plane_poses[p].begin());
+      for (auto& [id, uv] : plane_points[p]) std::copy_n(point_blocks[p].at(id), 2, uv.begin());
+    }
+  };
+  copy_out();
 
   // The Cauchy loss hardly discounts those points: they are off by a few tenths of a pixel
   // in a consistent way (a track on the wrong plane), not by pixels.
   if (leave_out) {
     std::map<std::pair<int, int>, std::pair<double, int>> by_point;  // Squared sum, count.
     for (const Residual& r : residuals) {
-      double e[2];
-      PlanePointCost(r.pixel).Residual(intrinsics_block, frame_blocks[r.frame],
-                                       plane_blocks[r.plane], point_blocks[r.plane].at(r.point), e);
       auto& [sum_sq, count] = by_point[{r.plane, r.point}];
-      sum_sq += e[0] * e[0] + e[1] * e[1];
+      sum_sq += error_px(r).squaredNorm();
       ++count;
     }
     std::vector<double> mean_sq;
@@ -696,24 +708,13 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
       return no_update("the solver failed: " + summary.BriefReport());
     }
     result.iterations += int(summary.iterations.size()) - 1;
-  }
-  std::copy_n(intrinsics_block, kNumIntrinsics, intrinsics.begin());
-  for (int f : posed) std::copy_n(frame_blocks[f], 6, frame_poses[f].begin());
-  for (size_t p = 0; p < tracks.size(); ++p) {
-    std::copy_n(plane_blocks[p], 6, plane_poses[p].begin());
-    for (auto& [id, uv] : plane_points[p]) std::copy_n(point_blocks[p].at(id), 2, uv.begin());
+    copy_out();
   }
 
   const CameraIntrinsics estimate =
       CameraIntrinsics::FromPacked(intrinsics, prior.width, prior.height);
   double sum_sq = 0.0;
-  for (const Residual& r : residuals) {
-    double e[2];
-    PlanePointCost(r.pixel).Residual(intrinsics.data(), frame_poses[r.frame].data(),
-                                     plane_poses[r.plane].data(),
-                                     plane_points[r.plane][r.point].data(), e);
-    sum_sq += e[0] * e[0] + e[1] * e[1];
-  }
+  for (const Residual& r : residuals) sum_sq += error_px(r).squaredNorm();
   result.rms_px = std::sqrt(sum_sq / (2.0 * residuals.size()));
   result.frames_used = int(posed.size());
   result.cam_from_world.resize(material.frame_count);
