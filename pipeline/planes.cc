@@ -12,6 +12,8 @@
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "pipeline/homography_ransac.h"
+
 namespace autocal {
 namespace {
 
@@ -73,13 +75,10 @@ cv::Matx33d CameraMatrix(const CameraIntrinsics& camera) {
 // Robust homography from `from` to `to`; inliers flagged in `mask`. Empty on failure.
 cv::Matx33d FitHomography(const std::vector<cv::Point2f>& from, const std::vector<cv::Point2f>& to,
                           double threshold_px, int iterations, std::vector<uchar>* mask, bool* ok) {
-  *ok = false;
-  if (from.size() < 4) return cv::Matx33d::eye();
-  const cv::Mat h =
-      cv::findHomography(from, to, cv::RANSAC, threshold_px, *mask, iterations, kConfidence);
-  if (h.empty()) return cv::Matx33d::eye();
-  *ok = true;
-  return cv::Matx33d(h);
+  const std::optional<cv::Matx33d> h =
+      FitHomographyRansac(from, to, threshold_px, iterations, kConfidence, mask);
+  *ok = h.has_value();
+  return h.value_or(cv::Matx33d::eye());
 }
 
 // The flow (pixels) that the translation alone causes at the centre of the plane's
