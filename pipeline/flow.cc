@@ -69,15 +69,24 @@ void FlowTracker::ForwardBackward(const std::vector<cv::Mat>& pyramid,
   cv::calcOpticalFlowPyrLK(pyramid_, pyramid, start, *end, status, error, window, levels, criteria,
                            cv::OPTFLOW_USE_INITIAL_FLOW, options_.min_eigen);
   // Back from where the forward search ended, without a hint: a track that drifted onto
-  // something else (an occluder, a repeated pattern) does not find its way home.
+  // something else (an occluder, a repeated pattern) does not find its way home. Only the
+  // tracks found forward: each search is independent of the others.
+  std::vector<size_t> forward;
+  std::vector<cv::Point2f> there;
+  for (size_t i = 0; i < start.size(); ++i) {
+    if (!status[i]) continue;
+    forward.push_back(i);
+    there.push_back((*end)[i]);
+  }
+  if (forward.empty()) return;
   std::vector<cv::Point2f> back;
   std::vector<uchar> back_status;
-  cv::calcOpticalFlowPyrLK(pyramid, pyramid_, *end, back, back_status, error, window, levels,
+  cv::calcOpticalFlowPyrLK(pyramid, pyramid_, there, back, back_status, error, window, levels,
                            criteria, 0, options_.min_eigen);
   const double max_miss2 = options_.max_fb_error_px * options_.max_fb_error_px;
-  for (size_t i = 0; i < start.size(); ++i) {
-    const cv::Point2f miss = back[i] - start[i];
-    (*found)[i] = status[i] && back_status[i] && miss.dot(miss) <= max_miss2;
+  for (size_t k = 0; k < forward.size(); ++k) {
+    const cv::Point2f miss = back[k] - start[forward[k]];
+    (*found)[forward[k]] = back_status[k] && miss.dot(miss) <= max_miss2;
   }
 }
 
