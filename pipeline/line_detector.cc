@@ -194,6 +194,69 @@ std::vector<EdgePixel> CollectEdgePixels(const cv::Mat& edges, const cv::Mat& cl
   return pixels;
 }
 
+// A line (rho, theta) of the Radon transform and the edge pixels that voted for it.
+struct RadonPeak {
+  double rho, theta;
+  int votes;
+};
+
+// The linear Radon transform of the sparse edge map, binned as cv::HoughLines bins it, and
+// its local maxima above `min_votes`, strongest first. Each edge pixel votes only for the
+// lines its gradient could be normal to (within max_normal_angle_deg, as CollectEdgePixels
+// asks of a line's pixels): a quarter of the votes of every orientation at the defaults,
+// and no peaks raised by edges that cross the line.
+std::vector<RadonPeak> FindRadonPeaks(const cv::Mat& edges, const Gradients& gradients,
+                                      const LineDetectorOptions& options, int min_votes) {
+  const double theta_step = options.theta_resolution_deg * M_PI / 180.0;
+  const int thetas = static_cast<int>(std::lround(M_PI / theta_step));
+  const double max_rho = edges.cols + edges.rows;
+  const int rhos = static_cast<int>(std::lround((2 * max_rho + 1) / options.rho_resolution_px));
+  const double rho_offset = (rhos - 1) / 2;
+  std::vector<double> cos_table(thetas), sin_table(thetas);
+  for (int n = 0; n < thetas; ++n) {
+    cos_table[n] = std::cos(n * theta_step) / options.rho_resolution_px;
+    sin_table[n] = std::sin(n * theta_step) / options.rho_resolution_px;
+  }
+  const double reach = options.max_normal_angle_deg * M_PI / 180.0;
+  // Stored by distance, then angle: a pixel's votes for neighbouring angles land in
+  // neighbouring distances, close in memory. A border of empty bins all round keeps the
+  // neighbour comparisons inside; 16 bits hold more votes than an image has pixels on a line.
+  const int stride = thetas + 2;
+  std::vector<uint16_t> accumulator(size_t(rhos + 2) * stride, 0);
+  auto bin = [&](int r, int n) -> uint16_t& { return accumulator[size_t(r + 1) * stride + n + 1]; };
+  for (int y = 0; y < edges.rows; ++y) {
+    const uint8_t* row = edges.ptr<uint8_t>(y);
+    for (int x = 0; x < edges.cols; ++x) {
+      if (!row[x]) continue;
+      const Eigen::Vector2d g = gradients.At(x, y);
+      if (g.x() == 0 && g.y() == 0) continue;
+      const double angle = std::atan2(g.y(), g.x());
+      const int first = static_cast<int>(std::ceil((angle - reach) / theta_step));
+      const int last = static_cast<int>(std::floor((angle + reach) / theta_step));
+      // Normals a half turn apart are one line (theta in [0, pi), rho of either sign).
+      int n = ((first % thetas) + thetas) % thetas;
+      for (int k = first; k <= last; ++k, n = n + 1 == thetas ? 0 : n + 1) {
+        // Rounded to the nearest bin (the sum is positive: truncation floors).
+        const int r = static_cast<int>(x * cos_table[n] + y * sin_table[n] + rho_offset + 0.5);
+        ++bin(r, n);
+      }
+    }
+  }
+  std::vector<RadonPeak> peaks;
+  for (int n = 0; n < thetas; ++n) {
+    for (int r = 0; r < rhos; ++r) {
+      const int votes = bin(r, n);
+      if (votes > min_votes && votes > bin(r - 1, n) && votes >= bin(r + 1, n) &&
+          votes > bin(r, n - 1) && votes >= bin(r, n + 1)) {
+        peaks.push_back({(r - rho_offset) * options.rho_resolution_px, n * theta_step, votes});
+      }
+    }
+  }
+  std::stable_sort(peaks.begin(), peaks.end(),
+                   [](const RadonPeak& a, const RadonPeak& b) { return a.votes > b.votes; });
+  return peaks;
+}
+
 }  // namespace
 
 std::vector<LineSegment> DetectLines(const cv::Mat& gray, const LineDetectorOptions& options) {
@@ -205,23 +268,16 @@ std::vector<LineSegment> DetectLines(const Gradients& gradients,
   cv::Mat edges;
   cv::Canny(gradients.smoothed(), edges, options.canny_low, options.canny_high, 3, true);
 
-  // The linear Radon transform of the sparse edge map: each edge pixel votes for the
-  // (rho, theta) of every line through it. Peaks must be backed by a segment's worth
-  // of edge pixels.
-  std::vector<cv::Vec3f> peaks;
   const int min_votes = static_cast<int>(options.min_length_px * options.min_fill);
-  cv::HoughLines(edges, peaks, options.rho_resolution_px,
-                 options.theta_resolution_deg * M_PI / 180.0, min_votes);
-  std::sort(peaks.begin(), peaks.end(),
-            [](const cv::Vec3f& a, const cv::Vec3f& b) { return a[2] > b[2]; });
+  std::vector<RadonPeak> peaks = FindRadonPeaks(edges, gradients, options, min_votes);
   // Weak peaks past a few per wanted line are clutter (texture, noise): not worth a look.
   peaks.resize(std::min<size_t>(peaks.size(), 2 * options.max_lines));
 
   std::vector<LineSegment> segments;
   cv::Mat claimed = cv::Mat::zeros(edges.size(), CV_8U);
-  for (const cv::Vec3f& peak : peaks) {
+  for (const RadonPeak& peak : peaks) {
     if (int(segments.size()) >= options.max_lines) break;
-    double rho = peak[0], theta = peak[1];
+    double rho = peak.rho, theta = peak.theta;
     // Neighbouring bins of a line already taken hold its own votes again.
     const bool taken = std::any_of(segments.begin(), segments.end(), [&](const LineSegment& s) {
       const auto [dtheta, drho] = LineDistance(s.rho, s.theta, rho, theta);
