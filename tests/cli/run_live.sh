@@ -20,10 +20,14 @@ seconds=16
   --set supersampling=1 --out "$dir/walk" >/dev/null 2>&1 || fail "simulate"
 frames_total=$((seconds * 30))
 
-# Four times real time, 120 frames/s: faster than the pipeline on any machine. Frames are
-# dropped and counted, and nothing blocks: --seconds ends the run on time.
+# Four times real time, 120 frames/s asked; the reader decodes some 50-80 frames/s here,
+# about as fast as the pipeline runs at 640x480 with the defaults, so the pipeline is
+# slowed (Lucas-Kanade windows of 31 px: 8 times the area) to fall behind on any machine,
+# loaded or not. Frames are dropped and counted, and nothing blocks: --seconds ends the
+# run on time.
 start=$(date +%s.%N)
 "$autocal" run --input "$dir/walk" --live --speed 4 --seconds 1.5 --summary "$dir/fast.json" \
+  --set motion.flow.window_px=31 \
   >"$dir/fast.out" 2>"$dir/fast.progress" || fail "fast run: $(cat "$dir/fast.progress")"
 elapsed=$(awk "BEGIN { print $(date +%s.%N) - $start }")
 grep -q '"ended_by": "--seconds"' "$dir/fast.json" || fail "ended by --seconds: $(cat "$dir/fast.json")"
@@ -31,7 +35,7 @@ received=$(json_number "$dir/fast.json" frames_received)
 dropped=$(json_number "$dir/fast.json" frames_dropped)
 processed=$(json_number "$dir/fast.json" frames)
 echo "4x: $received frames received in 1.5 s, $dropped dropped, $processed processed; $elapsed s"
-[[ $dropped -gt 0 ]] || fail "a 120 frames/s source is faster than the pipeline: frames dropped"
+[[ $dropped -gt 0 ]] || fail "a source faster than the pipeline: frames dropped"
 by_pipeline=$(json_number "$dir/fast.json" frames_dropped_by_pipeline)
 [[ $((processed + by_pipeline)) -eq $received ]] || fail "each frame received processed or dropped"
 grep -qE "^live: $received frames received, $dropped dropped" "$dir/fast.out" || fail "drops reported"
