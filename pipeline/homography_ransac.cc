@@ -1,5 +1,6 @@
 #include "pipeline/homography_ransac.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>

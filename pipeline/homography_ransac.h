@@ -8,6 +8,9 @@
 
 namespace autocal {
 
+// Confidence that no better consensus was missed: OpenCV's default.
+inline constexpr double kRansacConfidence = 0.995;
+
 // A robust homography from `from` to `to`, as cv::findHomography(from, to, cv::RANSAC,
 // threshold_px, mask, max_iterations, confidence) finds it: the consensus of the best
 // 4-point sample (points whose transfer error is within threshold_px), the sample count

@@ -194,7 +194,7 @@ std::vector<EdgePixel> CollectEdgePixels(const cv::Mat& edges, const cv::Mat& cl
   return pixels;
 }
 
-// A line (rho, theta) of the Radon transform and the edge pixels that voted for it.
+// A line (rho, theta) of the Radon transform and how many edge pixels voted for it.
 struct RadonPeak {
   double rho, theta;
   int votes;

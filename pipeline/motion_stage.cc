@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <chrono>
 
-#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "pipeline/homography_ransac.h"
 #include "pipeline/stopwatch.h"
 
 namespace autocal {
@@ -140,10 +140,11 @@ std::vector<DominantPlane> MotionStage::Refind(const cv::Mat& gray,
           to.push_back(now.points[m.trainIdx]);
         }
         std::vector<uchar> inliers;
-        const cv::Mat h = cv::findHomography(from, to, cv::RANSAC,
-                                             options_.planes.shot_inlier_threshold_px, inliers,
-                                             options_.planes.ransac_iterations);
-        const int count = h.empty() ? 0 : cv::countNonZero(inliers);
+        const int count =
+            FitHomographyRansac(from, to, options_.planes.shot_inlier_threshold_px,
+                                options_.planes.ransac_iterations, kRansacConfidence, &inliers)
+                ? cv::countNonZero(inliers)
+                : 0;
         if (count >= options_.refind_min_matches && count > best_inliers) {
           best = int(k);
           best_inliers = count;

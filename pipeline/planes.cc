@@ -18,8 +18,6 @@ namespace autocal {
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
-// RANSAC's confidence that no better model was missed.
-constexpr double kConfidence = 0.995;
 // Thresholds over the long baseline: drift grows about as the square root of time.
 const double kLongScale = std::sqrt(2.0);
 // Attempts at a new plane per frame whose inliers are too few or too crowded.
@@ -76,7 +74,7 @@ cv::Matx33d CameraMatrix(const CameraIntrinsics& camera) {
 cv::Matx33d FitHomography(const std::vector<cv::Point2f>& from, const std::vector<cv::Point2f>& to,
                           double threshold_px, int iterations, std::vector<uchar>* mask, bool* ok) {
   const std::optional<cv::Matx33d> h =
-      FitHomographyRansac(from, to, threshold_px, iterations, kConfidence, mask);
+      FitHomographyRansac(from, to, threshold_px, iterations, kRansacConfidence, mask);
   *ok = h.has_value();
   return h.value_or(cv::Matx33d::eye());
 }

@@ -8,10 +8,10 @@
 #include <sstream>
 #include <tuple>
 
-#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "pipeline/error.h"
+#include "pipeline/homography_ransac.h"
 #include "pipeline/plumb_line.h"
 #include "pipeline/stopwatch.h"
 
@@ -149,8 +149,8 @@ std::vector<std::vector<ShotTrack>> SplitIntoPlanes(std::vector<ShotTrack> track
       }
     }
     std::vector<uchar> mask;
-    if (cv::findHomography(from, to, cv::RANSAC, threshold, mask, options.ransac_iterations)
-            .empty()) {
+    if (!FitHomographyRansac(from, to, threshold, options.ransac_iterations, kRansacConfidence,
+                             &mask)) {
       break;
     }
     std::vector<bool> member(tracks.size(), false);
@@ -173,10 +173,10 @@ std::vector<std::vector<ShotTrack>> SplitIntoPlanes(std::vector<ShotTrack> track
           }
         }
         if (int(members.size()) < options.min_inliers) continue;
-        const cv::Mat h =
-            cv::findHomography(from, to, cv::RANSAC, threshold, mask, options.ransac_iterations);
-        if (h.empty()) continue;
-        const cv::Matx33d homography(h);
+        const std::optional<cv::Matx33d> fit = FitHomographyRansac(
+            from, to, threshold, options.ransac_iterations, kRansacConfidence, &mask);
+        if (!fit) continue;
+        const cv::Matx33d homography = *fit;
         for (size_t t = 0; t < tracks.size(); ++t) {
           const auto both = InBoth(tracks[t], a, b, ideal);
           if (!both) continue;

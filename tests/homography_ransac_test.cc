@@ -12,7 +12,6 @@ namespace autocal {
 namespace {
 
 constexpr double kThresholdPx = 1.0;
-constexpr double kConfidence = 0.995;
 
 cv::Point2f Transfer(const cv::Matx33d& h, const cv::Point2f& p) {
   const cv::Vec3d q = h * cv::Vec3d(p.x, p.y, 1.0);
@@ -76,7 +75,8 @@ TEST(HomographyRansac, FindsThePlaneAmongOutliersAsOpenCvDoes) {
     SCOPED_TRACE(testing::Message() << planar << " on the plane, " << others << " off it");
     const Correspondences c = Make(truth, planar, others, &random);
     std::vector<uchar> inliers;
-    const auto h = FitHomographyRansac(c.from, c.to, kThresholdPx, 500, kConfidence, &inliers);
+    const auto h =
+        FitHomographyRansac(c.from, c.to, kThresholdPx, 500, kRansacConfidence, &inliers);
     ASSERT_TRUE(h.has_value());
     // The consensus of the best 4-point sample: none off the plane, most on it (a model
     // through four noisy points strays toward the image's far side).
@@ -90,8 +90,8 @@ TEST(HomographyRansac, FindsThePlaneAmongOutliersAsOpenCvDoes) {
     EXPECT_LT(LargestTransferGap(*h, truth), 0.2);
 
     cv::Mat opencv_mask;
-    const cv::Mat opencv =
-        cv::findHomography(c.from, c.to, cv::RANSAC, kThresholdPx, opencv_mask, 500, kConfidence);
+    const cv::Mat opencv = cv::findHomography(c.from, c.to, cv::RANSAC, kThresholdPx, opencv_mask,
+                                              500, kRansacConfidence);
     ASSERT_FALSE(opencv.empty());
     EXPECT_EQ(cv::countNonZero(opencv_mask != cv::Mat(inliers)), 0);
     // The same consensus, fitted the same way.
@@ -106,13 +106,13 @@ TEST(HomographyRansac, SamplesUntilConfidentOfTheBestConsensus) {
   const cv::Matx33d truth = WallHomography();
   const Correspondences c = Make(truth, 40, 80, &random);
   std::vector<uchar> inliers;
-  const auto h = FitHomographyRansac(c.from, c.to, kThresholdPx, 500, kConfidence, &inliers);
+  const auto h = FitHomographyRansac(c.from, c.to, kThresholdPx, 500, kRansacConfidence, &inliers);
   ASSERT_TRUE(h.has_value());
   EXPECT_EQ(std::count(inliers.begin(), inliers.end(), 1), 40);
   EXPECT_LT(LargestTransferGap(*h, truth), 0.3);
   // Ten draws are not enough to be confident, and do not find it.
   std::vector<uchar> few;
-  const auto hurried = FitHomographyRansac(c.from, c.to, kThresholdPx, 10, kConfidence, &few);
+  const auto hurried = FitHomographyRansac(c.from, c.to, kThresholdPx, 10, kRansacConfidence, &few);
   EXPECT_TRUE(!hurried || std::count(few.begin(), few.end(), 1) < 40);
 }
 
@@ -120,8 +120,8 @@ TEST(HomographyRansac, GivesTheSameResultEveryTime) {
   std::mt19937 random(3);
   const Correspondences c = Make(WallHomography(), 30, 70, &random);
   std::vector<uchar> first, second;
-  const auto a = FitHomographyRansac(c.from, c.to, kThresholdPx, 300, kConfidence, &first);
-  const auto b = FitHomographyRansac(c.from, c.to, kThresholdPx, 300, kConfidence, &second);
+  const auto a = FitHomographyRansac(c.from, c.to, kThresholdPx, 300, kRansacConfidence, &first);
+  const auto b = FitHomographyRansac(c.from, c.to, kThresholdPx, 300, kRansacConfidence, &second);
   ASSERT_TRUE(a && b);
   EXPECT_EQ(first, second);
   EXPECT_EQ(cv::norm(*a - *b), 0.0);
@@ -130,11 +130,11 @@ TEST(HomographyRansac, GivesTheSameResultEveryTime) {
 TEST(HomographyRansac, RefusesTooFewOrCollinearPoints) {
   std::vector<uchar> inliers;
   const std::vector<cv::Point2f> three = {{0, 0}, {10, 0}, {0, 10}};
-  EXPECT_FALSE(FitHomographyRansac(three, three, kThresholdPx, 100, kConfidence, &inliers));
+  EXPECT_FALSE(FitHomographyRansac(three, three, kThresholdPx, 100, kRansacConfidence, &inliers));
   EXPECT_EQ(inliers.size(), 3u);
   std::vector<cv::Point2f> line;
   for (int i = 0; i < 20; ++i) line.emplace_back(5.0f * i, 2.0f * i + 1.0f);
-  EXPECT_FALSE(FitHomographyRansac(line, line, kThresholdPx, 100, kConfidence, &inliers));
+  EXPECT_FALSE(FitHomographyRansac(line, line, kThresholdPx, 100, kRansacConfidence, &inliers));
   EXPECT_EQ(std::count(inliers.begin(), inliers.end(), 1), 0);
 }
 
