@@ -65,9 +65,9 @@ void FlowTracker::ForwardBackward(const std::vector<cv::Mat>& pyramid,
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
                                   options_.max_iterations, options_.epsilon_px);
   std::vector<uchar> status;
-  std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(pyramid_, pyramid, start, *end, status, error, window, levels, criteria,
-                           cv::OPTFLOW_USE_INITIAL_FLOW, options_.min_eigen);
+  // No matching errors: nothing uses them, and they cost a pass over each window.
+  cv::calcOpticalFlowPyrLK(pyramid_, pyramid, start, *end, status, cv::noArray(), window, levels,
+                           criteria, cv::OPTFLOW_USE_INITIAL_FLOW, options_.min_eigen);
   // Back from where the forward search ended, without a hint: a track that drifted onto
   // something else (an occluder, a repeated pattern) does not find its way home. Only the
   // tracks found forward: each search is independent of the others.
@@ -81,8 +81,8 @@ void FlowTracker::ForwardBackward(const std::vector<cv::Mat>& pyramid,
   if (forward.empty()) return;
   std::vector<cv::Point2f> back;
   std::vector<uchar> back_status;
-  cv::calcOpticalFlowPyrLK(pyramid, pyramid_, there, back, back_status, error, window, levels,
-                           criteria, 0, options_.min_eigen);
+  cv::calcOpticalFlowPyrLK(pyramid, pyramid_, there, back, back_status, cv::noArray(), window,
+                           levels, criteria, 0, options_.min_eigen);
   const double max_miss2 = options_.max_fb_error_px * options_.max_fb_error_px;
   for (size_t k = 0; k < forward.size(); ++k) {
     const cv::Point2f miss = back[k] - start[forward[k]];
