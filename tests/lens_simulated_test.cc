@@ -22,7 +22,7 @@ struct LensRun {
   double periodic_ms = 0.0;
   // Distances (px, in the image) of confirmed snake hinges to the true curve of their
   // world line, and of the probing end hinges.
-  std::vector<double> vertex_px;  // Every confirmed hinge's distance.
+  std::vector<double> vertex_px;  // Every confirmed hinge's distance, sorted.
   int vertices_near_border = 0;  // Confirmed hinges within 10% of the image border.
   double worst_near_border_px = 0.0;
   double worst_end_px = 0.0;
