@@ -70,15 +70,6 @@ cv::Matx33d CameraMatrix(const CameraIntrinsics& camera) {
   return {camera.fx, 0.0, camera.cx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 1.0};
 }
 
-// Robust homography from `from` to `to`; inliers flagged in `mask`. Empty on failure.
-cv::Matx33d FitHomography(const std::vector<cv::Point2f>& from, const std::vector<cv::Point2f>& to,
-                          double threshold_px, int iterations, std::vector<uchar>* mask, bool* ok) {
-  const std::optional<cv::Matx33d> h =
-      FitHomographyRansac(from, to, threshold_px, iterations, kRansacConfidence, mask);
-  *ok = h.has_value();
-  return h.value_or(cv::Matx33d::eye());
-}
-
 // The flow (pixels) that the translation alone causes at the centre of the plane's
 // reference view, the smallest among the decompositions: under pure rotation every
 // decomposition has none.
@@ -247,10 +238,11 @@ bool PlaneTracker::FollowRecent(State* state, const Frame& frame) const {
     now.push_back(frame.now[i]);
   }
   std::vector<uchar> mask;
-  bool ok = false;
-  state->recent = FitHomography(base, now, state->scale * options_.eject_threshold_px,
-                                options_.ransac_iterations, &mask, &ok);
-  if (!ok) return false;
+  const std::optional<cv::Matx33d> recent =
+      FitHomographyRansac(base, now, state->scale * options_.eject_threshold_px,
+                          options_.ransac_iterations, kRansacConfidence, &mask);
+  if (!recent) return false;
+  state->recent = *recent;
   std::vector<double> errors;
   for (size_t k = 0; k < based.size(); ++k) {
     if (mask[k]) errors.push_back(frame.RecentError(state->recent, based[k]));
@@ -264,11 +256,10 @@ bool PlaneTracker::FollowRecent(State* state, const Frame& frame) const {
     far_now.push_back(frame.now[i]);
   }
   if (int(far.size()) >= options_.min_tracks_to_keep) {
-    bool long_ok = false;
-    const cv::Matx33d longer =
-        FitHomography(far, far_now, kLongScale * state->scale * options_.eject_threshold_px,
-                      options_.ransac_iterations, &mask, &long_ok);
-    if (long_ok) state->longer = longer;
+    const std::optional<cv::Matx33d> longer =
+        FitHomographyRansac(far, far_now, kLongScale * state->scale * options_.eject_threshold_px,
+                            options_.ransac_iterations, kRansacConfidence, &mask);
+    if (longer) state->longer = *longer;
   }
   return true;
 }
@@ -353,10 +344,11 @@ bool PlaneTracker::FollowReference(State* state, const Frame& frame,
     now.push_back(frame.now[frame.index.at(id)]);
   }
   std::vector<uchar> mask;
-  bool ok = false;
-  const cv::Matx33d h = FitHomography(reference, now, state->scale * options_.eject_threshold_px,
-                                      options_.ransac_iterations, &mask, &ok);
-  if (!ok) return false;
+  const std::optional<cv::Matx33d> fit =
+      FitHomographyRansac(reference, now, state->scale * options_.eject_threshold_px,
+                          options_.ransac_iterations, kRansacConfidence, &mask);
+  if (!fit) return false;
+  const cv::Matx33d h = *fit;
   // Members that drifted from their reference point (tracks drift as the view of their
   // patch changes) still follow the plane over the baseline: they stay, outside the fit,
   // until the reference moves up and measures them afresh.
@@ -392,12 +384,11 @@ void PlaneTracker::Merge(const Frame& frame) {
           }
         }
         std::vector<uchar> mask;
-        bool ok = false;
-        FitHomography(base, now,
-                      std::max(states_[a].scale, states_[b].scale) * options_.eject_threshold_px,
-                      options_.ransac_iterations, &mask, &ok);
-        merge =
-            ok && std::count(mask.begin(), mask.end(), 1) >= options_.merge_fraction * mask.size();
+        merge = FitHomographyRansac(
+                    base, now,
+                    std::max(states_[a].scale, states_[b].scale) * options_.eject_threshold_px,
+                    options_.ransac_iterations, kRansacConfidence, &mask) &&
+                std::count(mask.begin(), mask.end(), 1) >= options_.merge_fraction * mask.size();
       }
       if (!merge) {
         ++b;
@@ -441,10 +432,11 @@ void PlaneTracker::Detect(const Frame& frame) {
     // The consensus at the looser eject threshold (tracks drift); the plane's tracks are
     // those within the inlier threshold of its refined homography.
     std::vector<uchar> mask;
-    bool ok = false;
-    cv::Matx33d h = FitHomography(base, now, options_.eject_threshold_px,
-                                  options_.ransac_iterations, &mask, &ok);
-    if (!ok) return;
+    const std::optional<cv::Matx33d> consensus =
+        FitHomographyRansac(base, now, options_.eject_threshold_px, options_.ransac_iterations,
+                            kRansacConfidence, &mask);
+    if (!consensus) return;
+    cv::Matx33d h = *consensus;
     std::vector<int> rest;
     for (size_t k = 0; k < pool.size(); ++k) {
       if (!mask[k]) rest.push_back(pool[k]);
@@ -486,13 +478,12 @@ void PlaneTracker::Detect(const Frame& frame) {
     }
     if (int(far_from.size()) >= options_.min_tracks_to_keep) {
       std::vector<uchar> far_mask;
-      bool far_ok = false;
-      const cv::Matx33d longer =
-          FitHomography(far_from, far_to, kLongScale * scale * options_.eject_threshold_px,
-                        options_.ransac_iterations, &far_mask, &far_ok);
-      if (far_ok) {
+      const std::optional<cv::Matx33d> longer =
+          FitHomographyRansac(far_from, far_to, kLongScale * scale * options_.eject_threshold_px,
+                              options_.ransac_iterations, kRansacConfidence, &far_mask);
+      if (longer) {
         std::erase_if(in, [&](size_t k) {
-          return frame.LongError(longer, pool[k]) >
+          return frame.LongError(*longer, pool[k]) >
                  kLongScale * scale * options_.inlier_threshold_px;
         });
       }
@@ -796,12 +787,11 @@ std::vector<ShotPlane> FindPlanesBetweenShots(const KeypointSet& a, const Keypoi
        int(pool.size()) >= options.min_inliers;
        ++attempt) {
     std::vector<uchar> mask;
-    bool ok = false;
-    const cv::Matx33d h =
-        FitHomography(pick(ideal_a, pool), pick(ideal_b, pool), options.shot_inlier_threshold_px,
-                      options.ransac_iterations, &mask, &ok);
-    if (!ok) break;
-    Found plane{h, {}};
+    const std::optional<cv::Matx33d> h = FitHomographyRansac(
+        pick(ideal_a, pool), pick(ideal_b, pool), options.shot_inlier_threshold_px,
+        options.ransac_iterations, kRansacConfidence, &mask);
+    if (!h) break;
+    Found plane{*h, {}};
     std::vector<int> rest;
     for (size_t k = 0; k < pool.size(); ++k) (mask[k] ? plane.inliers : rest).push_back(pool[k]);
     if (int(plane.inliers.size()) < options.min_inliers) break;
