@@ -304,6 +304,13 @@ int Bench(const QStringList& arguments) {
       std::printf("resident size: %.1f MB after 1 min, %.1f MB at the end (%+.1f%%)\n",
                   *rss_after_minute, rss.back().second,
                   100.0 * (rss.back().second / *rss_after_minute - 1.0));
+      // The frames held in memory dilute the growth; what the pipeline holds is the rest.
+      if (frames_mb > 0.0) {
+        const double own_before = *rss_after_minute - frames_mb;
+        const double own_end = rss.back().second - frames_mb;
+        std::printf("  without the rendered frames: %.1f MB -> %.1f MB (%+.1f%%)\n", own_before,
+                    own_end, 100.0 * (own_end / own_before - 1.0));
+      }
     }
 
     if (parser.isSet("json")) {

@@ -16,6 +16,7 @@
 #include "devices/sim/simulator.h"
 #include "pipeline/calibration_pipeline.h"
 #include "pipeline/flow.h"
+#include "pipeline/homography_ransac.h"
 #include "pipeline/line_detector.h"
 #include "pipeline/radon_snake.h"
 #include "pipeline/rectifier.h"
@@ -112,8 +113,10 @@ void BM_Tracking(benchmark::State& state) {
 }
 BENCHMARK(BM_Tracking)->Apply(Resolutions);
 
-// Box 6's fit: a homography by RANSAC between the tracks' positions 10 frames apart.
+// Box 6's fit: a homography by RANSAC between the tracks' positions 10 frames apart, with
+// box 6's own sampling (`FitHomographyRansac`) and, for reference, cv::findHomography's.
 void BM_HomographyFit(benchmark::State& state) {
+  const bool ours = state.range(0) == 1;
   const Clip& clip = OfficeClip(640, 480);
   FlowTracker tracker;
   std::vector<std::pair<std::vector<cv::Point2f>, std::vector<cv::Point2f>>> pairs;
@@ -132,17 +135,29 @@ void BM_HomographyFit(benchmark::State& state) {
     state.SkipWithError("no tracks 10 frames old");
     return;
   }
+  const PlaneOptions options;
   size_t i = 0, points = 0;
   for (auto _ : state) {
-    cv::Mat mask;
-    const cv::Mat h = cv::findHomography(pairs[i].first, pairs[i].second, cv::RANSAC, 1.0, mask);
-    benchmark::DoNotOptimize(h.data);
+    if (ours) {
+      std::vector<uchar> inliers;
+      const auto h =
+          FitHomographyRansac(pairs[i].first, pairs[i].second, options.eject_threshold_px,
+                              options.ransac_iterations, kRansacConfidence, &inliers);
+      benchmark::DoNotOptimize(h);
+    } else {
+      cv::Mat mask;
+      const cv::Mat h = cv::findHomography(pairs[i].first, pairs[i].second, cv::RANSAC,
+                                           options.eject_threshold_px, mask,
+                                           options.ransac_iterations, kRansacConfidence);
+      benchmark::DoNotOptimize(h.data);
+    }
     points += pairs[i].first.size();
     i = (i + 1) % pairs.size();
   }
   state.counters["points"] = double(points) / double(state.iterations());
+  state.SetLabel(ours ? "FitHomographyRansac" : "cv::findHomography");
 }
-BENCHMARK(BM_HomographyFit)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_HomographyFit)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
 
 // Box 10: the solve over a full window of material, as the pipeline hands it out.
 void BM_CalibrationSolve(benchmark::State& state) {

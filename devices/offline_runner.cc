@@ -15,19 +15,6 @@
 
 namespace autocal {
 
-TimingStats TimingStatsOf(std::vector<double> values) {
-  TimingStats stats;
-  stats.count = static_cast<int>(values.size());
-  if (values.empty()) return stats;
-  std::sort(values.begin(), values.end());
-  const auto at = [&](double q) {
-    return values[std::min(values.size() - 1, static_cast<size_t>(q * double(values.size())))];
-  };
-  stats.median_ms = at(0.5);
-  stats.p95_ms = at(0.95);
-  return stats;
-}
-
 namespace {
 
 // The largest magnitude of each field over `errors`, signs kept.
@@ -131,21 +118,32 @@ void SummarizeHistory(const CalibrationHistory& history, int64_t end_ns, RunRepo
 
 namespace {
 
-// What the runtime's frames say, gathered on its boxes 4-9 thread.
+// What the runtime's frames say, gathered on its boxes 4-9 thread. Memory stays flat over
+// a session of any length: the timings go into histograms, and each frame's output is kept
+// only where it is to be compared with the truth (whose frames are held anyway).
 struct FrameLog {
-  std::map<std::string, std::vector<double>> times;
-  std::vector<int64_t> t_ns;
+  explicit FrameLog(bool keep) : keep_outputs(keep) {}
+
+  bool keep_outputs;
+  std::map<std::string, TimingHistogram> times;
+  size_t frames = 0;
+  int64_t first_ns = 0, last_ns = 0;
+  std::vector<int64_t> t_ns;  // With keep_outputs only.
   std::vector<CameraIntrinsics> outputs;
 
   void Add(const FrameSnapshot& snapshot) {
     double frame_ms = 0.0;
     for (const auto& [box, ms] : snapshot.timing.Named()) {
-      if (ms > 0.0) times[box].push_back(ms);
+      if (ms > 0.0) times[box].Add(ms);
       if (box != "calibration" && box != "distortion") frame_ms += ms;  // On workers.
     }
-    times["frame"].push_back(frame_ms);
-    t_ns.push_back(snapshot.t_ns);
-    outputs.push_back(snapshot.calibration.calibration);
+    times["frame"].Add(frame_ms);
+    if (frames++ == 0) first_ns = snapshot.t_ns;
+    last_ns = snapshot.t_ns;
+    if (keep_outputs) {
+      t_ns.push_back(snapshot.t_ns);
+      outputs.push_back(snapshot.calibration.calibration);
+    }
   }
 };
 
@@ -157,12 +155,12 @@ void CompleteReport(const Runtime& runtime, FrameLog log,
   log.times["update_latency"] = runtime.stats().update_latency_ms;
   report->wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (log.t_ns.size() > 1) report->seconds = 1e-9 * double(log.t_ns.back() - log.t_ns.front());
+  if (log.frames > 1) report->seconds = 1e-9 * double(log.last_ns - log.first_ns);
   report->fps = report->wall_seconds > 0 ? double(report->frames) / report->wall_seconds : 0.0;
 
-  SummarizeHistory(runtime.history(), log.t_ns.empty() ? 0 : log.t_ns.back(), report);
-  for (auto& [box, values] : log.times) {
-    if (!values.empty()) report->timing[box] = TimingStatsOf(std::move(values));
+  SummarizeHistory(runtime.history(), log.frames == 0 ? 0 : log.last_ns, report);
+  for (const auto& [box, histogram] : log.times) {
+    if (histogram.count() > 0) report->timing[box] = histogram.Stats();
   }
   if (truth && truth->size() == log.t_ns.size() && !truth->empty()) {
     report->truth = CompareWithTruth(log.t_ns, log.outputs, *truth, settings.convergence);
@@ -181,7 +179,9 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   accel.cam_from_accel = session.cam_from_accel;
   const std::unique_ptr<HistoryStore> store = OpenNewHistory(settings);
 
-  FrameLog log;
+  const std::vector<GroundTruthFrame>* truth = sequence.ground_truth();
+  if (truth && truth->size() != sequence.frame_count()) truth = nullptr;
+  FrameLog log(truth != nullptr);
   report.frames = sequence.frame_count();
   const auto start = std::chrono::steady_clock::now();
   RuntimeOptions runtime_options = settings.runtime;
@@ -192,7 +192,7 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
     log.Add(*snapshot);
     if (snapshot->attempt && store) store->Record(runtime->history());
     if (progress) {
-      progress({log.t_ns.size(), report.frames,
+      progress({log.frames, report.frames,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
                 snapshot.get()});
     }
@@ -200,10 +200,7 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
                                       on_frame, settings.solve);
   PushSequence(sequence, runtime.get());
-  const std::vector<GroundTruthFrame>* truth = sequence.ground_truth();
-  CompleteReport(*runtime, std::move(log),
-                 truth && truth->size() == report.frames ? truth : nullptr, settings, start,
-                 &report);
+  CompleteReport(*runtime, std::move(log), truth, settings, start, &report);
   return report;
 }
 
@@ -233,7 +230,7 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
     }
     std::vector<GroundTruthFrame> processed_truth;
 
-    FrameLog log;
+    FrameLog log(!truth_index.empty());
     const auto start = std::chrono::steady_clock::now();
     RuntimeOptions runtime_options = settings.runtime;
     runtime_options.accel_time_offset_s = settings.accel_time_offset_s;
@@ -331,7 +328,7 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
     live.camera_gaps = stats.camera_gaps;
     live.camera_disconnections = stats.camera_disconnections;
     live.accel_disconnections = stats.accel_disconnections;
-    report.frames = log.t_ns.size();
+    report.frames = log.frames;
     CompleteReport(*runtime, std::move(log),
                    processed_truth.size() == report.frames ? &processed_truth : nullptr, settings,
                    start, &report);

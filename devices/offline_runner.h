@@ -19,6 +19,7 @@
 #include "devices/runtime.h"
 #include "devices/sequence.h"
 #include "devices/source.h"
+#include "devices/timing_stats.h"
 #include "pipeline/calibration_error.h"
 #include "pipeline/calibration_pipeline.h"
 #include "pipeline/history_store.h"
@@ -38,13 +39,6 @@ struct RunSettings {
   Runtime::Solver solve;
   // Where the truth is known: "converged" once the output is within these of it.
   CalibrationTolerance convergence;
-};
-
-// Median and 95th percentile of one box's time over the frames it ran on.
-struct TimingStats {
-  double median_ms = 0.0;
-  double p95_ms = 0.0;
-  int count = 0;
 };
 
 // The output against the truth, frame by frame and in summary.
@@ -145,9 +139,6 @@ GroundTruthReport CompareWithTruth(const std::vector<int64_t>& times,
                                    const std::vector<CameraIntrinsics>& outputs,
                                    const std::vector<GroundTruthFrame>& truth,
                                    const CalibrationTolerance& tolerance);
-// Median and 95th percentile of milliseconds.
-TimingStats TimingStatsOf(std::vector<double> ms);
-
 // DESIGN.md section 6: frames, seconds, fps, final, updates, alarms, timing_ms and, where
 // the truth is known, error; for a live run, `live` (frames received and dropped, camera
 // gaps, disconnections, device events, what ended it). Throws Error naming the file when it cannot

@@ -234,7 +234,7 @@ std::optional<Runtime::Judgement> Runtime::Judge(const Pending& pending,
   const double latency_ms = MillisecondsSince(pending.pushed);
   std::lock_guard stats_lock(stats_mutex_);
   ++stats_.judged;
-  stats_.update_latency_ms.push_back(latency_ms);
+  stats_.update_latency_ms.Add(latency_ms);
   return judged;
 }
 

@@ -25,6 +25,7 @@
 #include <opencv2/core.hpp>
 
 #include "devices/sequence.h"
+#include "devices/timing_stats.h"
 #include "pipeline/calibration_pipeline.h"
 
 namespace autocal {
@@ -129,7 +130,7 @@ struct RuntimeStats {
   int judged = 0;              // Attempts judged (a solve still running at the end is not).
   // Per judged attempt, wall-clock ms from the moment the frame that closed its window was
   // pushed to the moment its judgement was in effect.
-  std::vector<double> update_latency_ms;
+  TimingHistogram update_latency_ms;
 };
 
 class Runtime {

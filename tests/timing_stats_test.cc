@@ -1,0 +1,74 @@
+// The summary's timing figures: the histogram a run of any length keeps against the exact
+// ranks of every value, and against values worked by hand.
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "devices/timing_stats.h"
+
+namespace autocal {
+namespace {
+
+// Half a bin either way: the middle of a 1% bin is within 0.5% of anything in it.
+constexpr double kRelativeTolerance = 0.005;
+
+TimingHistogram HistogramOf(const std::vector<double>& values) {
+  TimingHistogram histogram;
+  for (double ms : values) histogram.Add(ms);
+  return histogram;
+}
+
+TEST(TimingStats, RanksWorkedByHand) {
+  // Sorted 1 2 3 4: the median is rank floor(0.5 * 4) = 2, the 95th percentile rank
+  // floor(0.95 * 4) = 3.
+  const std::vector<double> values = {4.0, 1.0, 3.0, 2.0};
+  const TimingStats exact = TimingStatsOf(values);
+  EXPECT_EQ(exact.median_ms, 3.0);
+  EXPECT_EQ(exact.p95_ms, 4.0);
+  EXPECT_EQ(exact.count, 4);
+
+  const TimingStats binned = HistogramOf(values).Stats();
+  EXPECT_NEAR(binned.median_ms, 3.0, 3.0 * kRelativeTolerance);
+  EXPECT_NEAR(binned.p95_ms, 4.0, 4.0 * kRelativeTolerance);
+  EXPECT_EQ(binned.count, 4);
+}
+
+TEST(TimingStats, HistogramAgreesWithTheExactRanksOverManyFrames) {
+  // A box's times over an hour at 30 frames/s, spread over four decades.
+  std::mt19937 random(7);
+  std::lognormal_distribution<double> ms(std::log(2.0), 1.2);
+  std::vector<double> values(108000);
+  for (double& value : values) value = ms(random);
+  const TimingStats exact = TimingStatsOf(values);
+  const TimingStats binned = HistogramOf(values).Stats();
+  EXPECT_EQ(binned.count, exact.count);
+  EXPECT_NEAR(binned.median_ms, exact.median_ms, exact.median_ms * kRelativeTolerance);
+  EXPECT_NEAR(binned.p95_ms, exact.p95_ms, exact.p95_ms * kRelativeTolerance);
+  // A 5% shift of every value shows: the bins resolve well below it.
+  std::vector<double> slower = values;
+  for (double& value : slower) value *= 1.05;
+  EXPECT_GT(HistogramOf(slower).Stats().median_ms, binned.median_ms * 1.04);
+}
+
+TEST(TimingStats, OutOfRangeTimesCountInTheEndBins) {
+  const std::vector<double> values = {0.0, std::numeric_limits<double>::quiet_NaN(), 1e-9, 5.0,
+                                      1e9};
+  const TimingStats binned = HistogramOf(values).Stats();
+  EXPECT_EQ(binned.count, 5);
+  // Ranks 2 and 4 of five: the third value below range, and the one above.
+  EXPECT_LE(binned.median_ms, TimingHistogram::kMinMs * TimingHistogram::kBinRatio);
+  EXPECT_GE(binned.p95_ms, TimingHistogram::kMaxMs / TimingHistogram::kBinRatio);
+}
+
+TEST(TimingStats, EmptyHasNoFigures) {
+  const TimingStats binned = TimingHistogram().Stats();
+  EXPECT_EQ(binned.count, 0);
+  EXPECT_EQ(binned.median_ms, 0.0);
+  EXPECT_EQ(binned.p95_ms, 0.0);
+}
+
+}  // namespace
+}  // namespace autocal
