@@ -693,17 +693,15 @@ void PlaneTracker::Update(int64_t t_ns, const std::vector<Track>& tracks,
   frame.now.resize(tracks.size());
   frame.magnification.assign(tracks.size(), 1.0f);
   if (Distorted(camera)) {
-    // The undistorted images of a pixel's right and lower neighbours.
-    std::vector<cv::Point2f> steps;
-    for (const Track& track : tracks) {
-      steps.push_back(track.current() + cv::Point2f(1.f, 0.f));
-      steps.push_back(track.current() + cv::Point2f(0.f, 1.f));
-    }
-    steps = UndistortPixels(steps, camera);
+    // The undistortion's local scale: one over the root of the distortion's Jacobian
+    // determinant at the track's ideal point (the camera matrix's scales cancel).
+    const auto d = camera.Distortion();
     for (size_t i = 0; i < tracks.size(); ++i) {
       const cv::Point2f& p = ideal_.at(tracks[i].id).back();
-      const cv::Point2f dx = steps[2 * i] - p, dy = steps[2 * i + 1] - p;
-      frame.magnification[i] = std::sqrt(std::abs(dx.x * dy.y - dx.y * dy.x));
+      const double x = (p.x - camera.cx) / camera.fx, y = (p.y - camera.cy) / camera.fy;
+      double j[4];
+      DistortionJacobian(d.data(), x, y, j);
+      frame.magnification[i] = float(1.0 / std::sqrt(std::abs(j[0] * j[3] - j[1] * j[2])));
     }
   }
   frame.base.resize(tracks.size());
