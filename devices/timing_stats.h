@@ -20,9 +20,9 @@ TimingStats TimingStatsOf(std::vector<double> ms);
 
 // Counts timings in logarithmic bins 1% wide from 0.1 us to 1000 s, so that memory stays
 // the same over a session of any length (a list of every frame's time grows by 0.9 MB an
-// hour for each box at 30 frames/s). Stats() takes the same ranks as TimingStatsOf and answers the
-// middle of their bin: within 0.5% of the exact value. Times outside the range count
-// in the end bins.
+// hour for each box at 30 frames/s). Stats() takes the same ranks as TimingStatsOf and
+// answers the middle of their bin: within 0.5% of the exact value. Times outside the
+// range count in the end bins.
 class TimingHistogram {
  public:
   void Add(double ms);
