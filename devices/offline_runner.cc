@@ -125,19 +125,14 @@ struct FrameLog {
   explicit FrameLog(bool keep) : keep_outputs(keep) {}
 
   bool keep_outputs;
-  std::map<std::string, TimingHistogram> times;
+  BoxTimingLog times;
   size_t frames = 0;
   int64_t first_ns = 0, last_ns = 0;
   std::vector<int64_t> t_ns;  // With keep_outputs only.
   std::vector<CameraIntrinsics> outputs;
 
   void Add(const FrameSnapshot& snapshot) {
-    double frame_ms = 0.0;
-    for (const auto& [box, ms] : snapshot.timing.Named()) {
-      if (ms > 0.0) times[box].Add(ms);
-      if (box != "calibration" && box != "distortion") frame_ms += ms;  // On workers.
-    }
-    times["frame"].Add(frame_ms);
+    times.Add(snapshot.timing);
     if (frames++ == 0) first_ns = snapshot.t_ns;
     last_ns = snapshot.t_ns;
     if (keep_outputs) {
@@ -152,15 +147,16 @@ struct FrameLog {
 void CompleteReport(const Runtime& runtime, FrameLog log,
                     const std::vector<GroundTruthFrame>* truth, const RunSettings& settings,
                     std::chrono::steady_clock::time_point start, RunReport* report) {
-  log.times["update_latency"] = runtime.stats().update_latency_ms;
   report->wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (log.frames > 1) report->seconds = 1e-9 * double(log.last_ns - log.first_ns);
   report->fps = report->wall_seconds > 0 ? double(report->frames) / report->wall_seconds : 0.0;
 
   SummarizeHistory(runtime.history(), log.frames == 0 ? 0 : log.last_ns, report);
-  for (const auto& [box, histogram] : log.times) {
-    if (histogram.count() > 0) report->timing[box] = histogram.Stats();
+  report->timing = log.times.Stats();
+  const RuntimeStats stats = runtime.stats();
+  if (stats.update_latency_ms.count() > 0) {
+    report->timing["update_latency"] = stats.update_latency_ms.Stats();
   }
   if (truth && truth->size() == log.t_ns.size() && !truth->empty()) {
     report->truth = CompareWithTruth(log.t_ns, log.outputs, *truth, settings.convergence);

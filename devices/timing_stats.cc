@@ -47,4 +47,26 @@ TimingStats TimingHistogram::Stats() const {
   return stats;
 }
 
+void BoxTimingLog::Add(const BoxTimings& timing) {
+  double frame_ms = 0.0;
+  for (const auto& [box, ms] : timing.Named()) {
+    if (ms > 0.0) boxes_[box].Add(ms);
+    if (box != "calibration" && box != "distortion") frame_ms += ms;
+  }
+  boxes_["frame"].Add(frame_ms);
+}
+
+std::map<std::string, TimingStats> BoxTimingLog::Stats() const {
+  std::map<std::string, TimingStats> stats;
+  for (const auto& [box, histogram] : boxes_) {
+    if (histogram.count() > 0) stats[box] = histogram.Stats();
+  }
+  return stats;
+}
+
+int64_t BoxTimingLog::frames() const {
+  const auto frame = boxes_.find("frame");
+  return frame == boxes_.end() ? 0 : frame->second.count();
+}
+
 }  // namespace autocal

@@ -4,7 +4,11 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
+#include <string>
 #include <vector>
+
+#include "pipeline/calibration_pipeline.h"
 
 namespace autocal {
 
@@ -37,6 +41,21 @@ class TimingHistogram {
   static constexpr int kBins = 2315;  // ceil(log(kMaxMs / kMinMs) / log(kBinRatio)).
   std::array<uint32_t, kBins> counts_{};
   int64_t count_ = 0;
+};
+
+// Each box's times over a run's frames (`autocal run`'s timing_ms, the workbench's Timing
+// dock), and "frame": what boxes 1-9 and the judgement took on the frame's own threads,
+// without box 2's estimate and box 10's solve, which run on workers. A box that did not
+// run on a frame (0 ms) is not counted for it.
+class BoxTimingLog {
+ public:
+  void Add(const BoxTimings& timing);
+  // By name: "frame", "lines", "flow", ... (BoxTimings::Named), those that ran.
+  std::map<std::string, TimingStats> Stats() const;
+  int64_t frames() const;
+
+ private:
+  std::map<std::string, TimingHistogram> boxes_;
 };
 
 }  // namespace autocal

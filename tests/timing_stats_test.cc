@@ -2,7 +2,9 @@
 // ranks of every value, and against values worked by hand.
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -68,6 +70,34 @@ TEST(TimingStats, EmptyHasNoFigures) {
   EXPECT_EQ(binned.count, 0);
   EXPECT_EQ(binned.median_ms, 0.0);
   EXPECT_EQ(binned.p95_ms, 0.0);
+}
+
+TEST(TimingStats, BoxLogCountsTheBoxesThatRanAndTheFrameWithoutTheWorkers) {
+  BoxTimingLog log;
+  BoxTimings first;
+  first.lines_ms = 2.0;
+  first.rectify_ms = 1.0;
+  first.flow_ms = 3.0;
+  first.planes_ms = 1.5;
+  first.distortion_ms = 10.0;   // On box 2's worker.
+  first.calibration_ms = 50.0;  // On box 10's.
+  log.Add(first);
+  BoxTimings second;
+  second.lines_ms = 4.0;
+  second.flow_ms = 1.0;
+  log.Add(second);
+
+  EXPECT_EQ(log.frames(), 2);
+  const std::map<std::string, TimingStats> stats = log.Stats();
+  EXPECT_EQ(stats.count("features"), 0u) << "never ran";
+  EXPECT_EQ(stats.at("lines").count, 2);
+  EXPECT_EQ(stats.at("planes").count, 1);
+  EXPECT_EQ(stats.at("calibration").count, 1);
+  EXPECT_NEAR(stats.at("calibration").median_ms, 50.0, 50.0 * kRelativeTolerance);
+  // Frames of 2 + 1 + 3 + 1.5 = 7.5 and 4 + 1 = 5 ms: rank 1 of two is 7.5, for both.
+  EXPECT_EQ(stats.at("frame").count, 2);
+  EXPECT_NEAR(stats.at("frame").median_ms, 7.5, 7.5 * kRelativeTolerance);
+  EXPECT_NEAR(stats.at("frame").p95_ms, 7.5, 7.5 * kRelativeTolerance);
 }
 
 }  // namespace

@@ -72,6 +72,7 @@ bool LiveSession::connectSource(const QString& input, const QString& accel,
     std::lock_guard lock(mutex_);
     status_ = Status();
     latest_.reset();
+    timings_ = BoxTimingLog();
     latest_frame_ = LiveFrame();  // The last session's frame is not this one's.
     status_.source = QString::fromStdString(source_->Describe());
     status_.camera.state = DeviceState::kConnecting;
@@ -102,6 +103,11 @@ LiveSession::Status LiveSession::status() const {
   return status_;
 }
 
+std::map<std::string, TimingStats> LiveSession::timingStats() const {
+  std::lock_guard lock(mutex_);
+  return timings_.Stats();
+}
+
 std::shared_ptr<const FrameSnapshot> LiveSession::latestSnapshot() const {
   std::lock_guard lock(mutex_);
   return latest_;
@@ -121,6 +127,7 @@ void LiveSession::PublishFrame(LiveFrame frame) {
 void LiveSession::OnSnapshot(const std::shared_ptr<const FrameSnapshot>& snapshot) {
   std::lock_guard lock(mutex_);
   latest_ = snapshot;
+  timings_.Add(snapshot->timing);
   if (snapshot->attempt && !snapshot->attempt->boards.empty()) boards_attempt_ = snapshot->attempt;
   // Frames before it were dropped by the runtime, or done already.
   while (!in_pipeline_.empty() && in_pipeline_.front().t_ns < snapshot->t_ns) {

@@ -9,9 +9,10 @@
 #pragma once
 
 #include <atomic>
-#include <deque>
 #include <cstdint>
+#include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -24,6 +25,7 @@
 
 #include "devices/recorder.h"
 #include "devices/source.h"
+#include "devices/timing_stats.h"
 #include "pipeline/calibration_pipeline.h"
 
 namespace autocal {
@@ -108,6 +110,8 @@ class LiveSession : public QObject {
   // The newest processed frame (null before the first, or when the pipeline is not
   // running); safe from any thread, and the snapshot never changes.
   std::shared_ptr<const FrameSnapshot> latestSnapshot() const;
+  // Each box's time over the frames the live pipeline processed since connecting.
+  std::map<std::string, TimingStats> timingStats() const;
   // The newest live frame (empty image before the first); safe from any thread. Taking it
   // lets the next frameReady() be sent.
   LiveFrame latestFrame();
@@ -156,6 +160,7 @@ class LiveSession : public QObject {
   Status status_;
   std::shared_ptr<SourceBranch> branch_;  // The recording's feed while it runs.
   std::shared_ptr<const FrameSnapshot> latest_;
+  BoxTimingLog timings_;
   // Frames pushed to the pipeline and not yet done, by time, to pair with their snapshots.
   std::deque<LiveFrame> in_pipeline_;
   std::shared_ptr<const AttemptOutcome> boards_attempt_;

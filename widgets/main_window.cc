@@ -52,6 +52,7 @@
 #include "widgets/scene_view.h"
 #include "widgets/sequence_opener.h"
 #include "widgets/threshold_panel.h"
+#include "widgets/timing_table.h"
 #include "widgets/vest_check_dialog.h"
 #include "widgets/video_view.h"
 
@@ -276,12 +277,20 @@ void MainWindow::createDocks() {
   history_dock->setWidget(history_table_);
   addDockWidget(Qt::BottomDockWidgetArea, history_dock);
   tabifyDockWidget(plot_dock, history_dock);
+
+  timing_table_ = new TimingTable;
+  auto* timing_dock = new QDockWidget(tr("Timing"), this);
+  timing_dock->setObjectName(QStringLiteral("timing_dock"));
+  timing_dock->setWidget(timing_table_);
+  addDockWidget(Qt::BottomDockWidgetArea, timing_dock);
+  tabifyDockWidget(plot_dock, timing_dock);
   plot_dock->raise();
 
   view_menu_ = menuBar()->addMenu(tr("&View"));
   view_menu_->addAction(plot_dock->toggleViewAction());
   view_menu_->addAction(calibration_dock_->toggleViewAction());
   view_menu_->addAction(history_dock->toggleViewAction());
+  view_menu_->addAction(timing_dock->toggleViewAction());
   view_menu_->addAction(log_dock->toggleViewAction());
 }
 
@@ -571,6 +580,7 @@ void MainWindow::connectControllers() {
   });
   connect(pipeline_, &PipelineController::finished, this, [this](int frames, double seconds) {
     onPipelineProgress();
+    showTiming();
     QString display;
     if (run_seconds_played_ > 1.0) {
       display = tr("; the video view showed %1 frames per second while it ran and playback "
@@ -852,7 +862,16 @@ void MainWindow::onLiveFrame() {
   emit frameShown(index);
 }
 
+void MainWindow::showTiming() {
+  if (live_) {
+    timing_table_->setStats(live_session_->timingStats(), tr("the live source"));
+  } else {
+    timing_table_->setStats(pipeline_->timingStats(), tr("the recording"));
+  }
+}
+
 void MainWindow::onRateTick() {
+  showTiming();
   const double seconds = rate_clock_.restart() * 1e-3;
   const uint64_t painted = video_->framesPainted();
   const uint64_t frames = painted - frames_painted_at_tick_;

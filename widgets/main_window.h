@@ -34,6 +34,7 @@ struct CalibrationSeries;
 class FrameLoader;
 class HistoryOpener;
 class HistoryTable;
+class TimingTable;
 class LiveSession;
 struct FrameOverlays;
 struct FrameSnapshot;
@@ -61,6 +62,7 @@ class MainWindow : public QMainWindow {
   AccelPlot* accelPlot() const { return plot_; }
   CalibrationPlots* calibrationPlots() const { return calibration_plots_; }
   HistoryTable* historyTable() const { return history_table_; }
+  TimingTable* timingTable() const { return timing_table_; }
   ThresholdPanel* thresholdPanel() const { return threshold_panel_; }
   SceneView* sceneView() const { return scene_view_; }
   // The Devices dock's session: while it is connected the video view shows its frames.
@@ -129,8 +131,10 @@ class MainWindow : public QMainWindow {
   void onPipelineProgress();
   // The live session's newest frame goes on screen with its overlays.
   void onLiveFrame();
-  // Once a second: the display's frame rate, and the pipeline's progress.
+  // Once a second: the display's frame rate, the pipeline's progress and its timing.
   void onRateTick();
+  // The Timing dock: the live pipeline's while live, else the recording's run's.
+  void showTiming();
   void openFolderDialog();
   void openVideoDialog();
   void openSimulationDialog();
@@ -153,6 +157,7 @@ class MainWindow : public QMainWindow {
   AccelPlot* plot_ = nullptr;
   CalibrationPlots* calibration_plots_ = nullptr;
   HistoryTable* history_table_ = nullptr;
+  TimingTable* timing_table_ = nullptr;
   ThresholdPanel* threshold_panel_ = nullptr;
   SceneView* scene_view_ = nullptr;
   LiveSession* live_session_ = nullptr;

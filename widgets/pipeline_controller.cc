@@ -92,6 +92,7 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
   sequence_ = std::move(sequence);
   snapshots_.clear();
   attempts_.clear();
+  timings_ = BoxTimingLog();
   frames_done_ = 0;
   frame_count_ = sequence_ ? static_cast<int>(sequence_->frame_count()) : 0;
   elapsed_s_ = 0.0;
@@ -193,6 +194,7 @@ void PipelineController::onSnapshot(uint64_t generation,
   const int index = static_cast<int>(snapshot->index);  // Offline: every frame, in order.
   frames_done_ = index + 1;
   snapshots_[index] = snapshot;
+  timings_.Add(snapshot->timing);
   evictFarthest();
   const bool placed_boards = snapshot->attempt && !snapshot->attempt->boards.empty();
   if (snapshot->attempt) attempts_.push_back(snapshot->attempt);

@@ -21,6 +21,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -31,6 +32,7 @@
 #include <QString>
 #include <QTemporaryDir>
 
+#include "devices/timing_stats.h"
 #include "pipeline/calibration_pipeline.h"
 #include "pipeline/overlay_geometry.h"
 
@@ -83,6 +85,8 @@ class PipelineController : public QObject {
   const QString& historyPath() const { return history_path_; }
   // What is on screen for the current frame.
   const FrameOverlays& current() const { return current_; }
+  // Each box's time over the frames the run has done so far.
+  std::map<std::string, TimingStats> timingStats() const { return timings_.Stats(); }
 
  public slots:
   // The frame on screen changed (its decoded image: the rectified view is made from it).
@@ -156,6 +160,7 @@ class PipelineController : public QObject {
 
   std::map<int, std::shared_ptr<const FrameSnapshot>> snapshots_;
   std::vector<std::shared_ptr<const AttemptOutcome>> attempts_;  // In judging order.
+  BoxTimingLog timings_;
 
   FrameOverlays current_;
   QImage current_image_;

@@ -9,9 +9,11 @@
 #include <QAction>
 #include <QComboBox>
 #include <QDockWidget>
+#include <QLabel>
 #include <QPushButton>
 #include <QSettings>
 #include <QSignalSpy>
+#include <QTableWidget>
 #include <QTemporaryDir>
 #include <QtTest>
 
@@ -22,6 +24,7 @@
 #include "widgets/live_session.h"
 #include "widgets/main_window.h"
 #include "widgets/pipeline_controller.h"
+#include "widgets/timing_table.h"
 #include "widgets/video_view.h"
 
 namespace autocal {
@@ -162,6 +165,24 @@ void LiveVideoTest::showsLiveFramesWithTheirOverlays() {
   QVERIFY(hit >= 0.9 * anchors);
   QVERIFY(drawn.save(ScreenshotPath(QStringLiteral("live_video.png"))));
   QVERIFY(window.grab().save(ScreenshotPath(QStringLiteral("workbench_live.png"))));
+
+  // The Timing dock follows the live pipeline: its frames since connecting, as the session
+  // measured them, within the once-a-second refresh.
+  const QTableWidget* timing = window.timingTable()->table();
+  const auto* caption = window.findChild<QLabel*>(QStringLiteral("timing_caption"));
+  QVERIFY(caption);
+  const auto shown_frames = [&] {
+    return timing->rowCount() > 0 ? timing->item(0, TimingTable::kFrames)->text().toInt() : 0;
+  };
+  QTRY_VERIFY_WITH_TIMEOUT(
+      caption->text().contains(QStringLiteral("of the live source")) && shown_frames() >= 10,
+      kTimeoutMs);
+  QVERIFY(timing->rowCount() >= 8);
+  QCOMPARE(timing->item(0, TimingTable::kBox)->data(Qt::UserRole).toString(),
+           QStringLiteral("frame"));
+  const int live_frames = shown_frames();
+  QVERIFY(live_frames <= session.timingStats().at("frame").count);
+  QVERIFY(timing->item(0, TimingTable::kMedian)->text().toDouble() > 0.0);
 
   // Side by side: box 3's image of the live frame beside it.
   window.viewModeAction(VideoView::ViewMode::kSideBySide)->trigger();

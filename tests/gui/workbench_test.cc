@@ -3,14 +3,17 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include <QAction>
 #include <QComboBox>
+#include <QDockWidget>
 #include <QDoubleSpinBox>
 #include <QElapsedTimer>
 #include <QImage>
@@ -21,6 +24,7 @@
 #include <QSignalSpy>
 #include <QSlider>
 #include <QStatusBar>
+#include <QTableWidget>
 #include <QTemporaryDir>
 #include <QWheelEvent>
 #include <QtTest>
@@ -35,6 +39,7 @@
 #include "widgets/pipeline_controller.h"
 #include "widgets/playback_controller.h"
 #include "widgets/plot_decimation.h"
+#include "widgets/timing_table.h"
 #include "widgets/video_view.h"
 
 namespace autocal {
@@ -137,6 +142,7 @@ class WorkbenchTest : public QObject {
   void settingsPersist();
   void screenshotIsNotBlank();
   void statusTextFitsAtDefaultSize();
+  void timingDockShowsTheRunsBoxTimes();
 
  private:
   // A shown main window with `source` open and its first frame on screen.
@@ -624,6 +630,61 @@ void WorkbenchTest::statusTextFitsAtDefaultSize() {
   }
   const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
   QVERIFY(window.grab().save(QDir(dir).filePath(QStringLiteral("workbench_default_size.png"))));
+}
+
+// Issue 6: each box's median and 95th percentile in the workbench, as in the summary. Once
+// the run over the recording is done, the Timing dock lists the boxes that ran, in box
+// order, with the figures of the pipeline controller's log (the widget computes nothing),
+// counted over every frame.
+void WorkbenchTest::timingDockShowsTheRunsBoxTimes() {
+  MainWindow window;
+  window.resize(1200, 800);
+  window.show();
+  QVERIFY(QTest::qWaitForWindowExposed(&window));
+  const QTableWidget* table = window.timingTable()->table();
+  QCOMPARE(table->rowCount(), 0);  // Nothing run yet.
+  QSignalSpy finished(window.pipelineController(), &PipelineController::finished);
+  QSignalSpy opened(&window, &MainWindow::opened);
+  window.open(kSimSource);
+  QVERIFY(opened.wait(60000));
+  QVERIFY(finished.wait(120000));
+  const int frames = window.pipelineController()->framesDone();
+  QCOMPARE(frames, static_cast<int>(window.sequence()->frame_count()));
+
+  const std::map<std::string, TimingStats> stats = window.pipelineController()->timingStats();
+  std::vector<std::string> shown;
+  for (int row = 0; row < table->rowCount(); ++row) {
+    const std::string box =
+        table->item(row, TimingTable::kBox)->data(Qt::UserRole).toString().toStdString();
+    shown.push_back(box);
+    QVERIFY2(stats.count(box), box.c_str());
+    const TimingStats& expected = stats.at(box);
+    QCOMPARE(table->item(row, TimingTable::kMedian)->text(),
+             QString::number(expected.median_ms, 'f', 2));
+    QCOMPARE(table->item(row, TimingTable::kP95)->text(), QString::number(expected.p95_ms, 'f', 2));
+    const double median = table->item(row, TimingTable::kMedian)->text().toDouble();
+    const double p95 = table->item(row, TimingTable::kP95)->text().toDouble();
+    QCOMPARE(table->item(row, TimingTable::kFrames)->text().toInt(), expected.count);
+    QVERIFY2(expected.median_ms > 0.0 && p95 >= median, box.c_str());
+  }
+  QCOMPARE(shown.size(), stats.size());
+  QVERIFY(shown.size() >= 8);
+  QCOMPARE(shown.front(), std::string("frame"));
+  QCOMPARE(stats.at("frame").count, frames);
+  QCOMPARE(stats.at("lines").count, frames);  // Boxes 1 and 5 run on every frame.
+  QCOMPARE(stats.at("flow").count, frames);
+  QVERIFY(stats.at("frame").median_ms > stats.at("flow").median_ms);
+  const auto* caption = window.findChild<QLabel*>(QStringLiteral("timing_caption"));
+  QVERIFY(caption);
+  QVERIFY2(caption->text().contains(QStringLiteral("over %1 frames of the recording").arg(frames)),
+           qPrintable(caption->text()));
+
+  auto* dock = window.findChild<QDockWidget*>(QStringLiteral("timing_dock"));
+  QVERIFY(dock);
+  dock->raise();
+  QTest::qWait(200);
+  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
+  QVERIFY(window.grab().save(QDir(dir).filePath(QStringLiteral("workbench_timing.png"))));
 }
 
 }  // namespace autocal
