@@ -64,9 +64,4 @@ std::map<std::string, TimingStats> BoxTimingLog::Stats() const {
   return stats;
 }
 
-int64_t BoxTimingLog::frames() const {
-  const auto frame = boxes_.find("frame");
-  return frame == boxes_.end() ? 0 : frame->second.count();
-}
-
 }  // namespace autocal

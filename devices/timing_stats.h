@@ -52,7 +52,6 @@ class BoxTimingLog {
   void Add(const BoxTimings& timing);
   // By name: "frame", "lines", "flow", ... (BoxTimings::Named), those that ran.
   std::map<std::string, TimingStats> Stats() const;
-  int64_t frames() const;
 
  private:
   std::map<std::string, TimingHistogram> boxes_;
