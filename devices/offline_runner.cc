@@ -263,11 +263,13 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
         std::lock_guard lock(latest_mutex);
         newest = latest;
       }
-      RunProgress progress{size_t(runtime->stats().frames_done),
+      // One copy of the runtime's counters (they carry the latency histogram).
+      const RuntimeStats run = runtime->stats();
+      RunProgress progress{size_t(run.frames_done),
                            size_t(live.frames_received),
                            std::chrono::duration<double>(Clock::now() - start).count(),
                            newest.get(),
-                           runtime->stats().frames_dropped + stats.frames_dropped,
+                           run.frames_dropped + stats.frames_dropped,
                            &stats};
       control.progress(progress);
     };

@@ -249,45 +249,36 @@ void MainWindow::createCentralArea() {
 void MainWindow::createDocks() {
   plot_ = new AccelPlot;
   plot_dock_ = new QDockWidget(tr("Accelerometer"), this);
-  QDockWidget* plot_dock = plot_dock_;
-  plot_dock->setObjectName(QStringLiteral("accelerometer_dock"));
-  plot_dock->setWidget(plot_);
-  addDockWidget(Qt::BottomDockWidgetArea, plot_dock);
+  plot_dock_->setObjectName(QStringLiteral("accelerometer_dock"));
+  plot_dock_->setWidget(plot_);
+  addDockWidget(Qt::BottomDockWidgetArea, plot_dock_);
+  // The other bottom docks are tabs beside the accelerometer's.
+  const auto add_tab = [this](const QString& title, const QString& name, QWidget* widget) {
+    auto* dock = new QDockWidget(title, this);
+    dock->setObjectName(name);
+    dock->setWidget(widget);
+    addDockWidget(Qt::BottomDockWidgetArea, dock);
+    tabifyDockWidget(plot_dock_, dock);
+    return dock;
+  };
 
   log_ = new QPlainTextEdit;
   log_->setObjectName(QStringLiteral("log"));
   log_->setReadOnly(true);
   log_->setMaximumBlockCount(5000);
-  auto* log_dock = new QDockWidget(tr("Log"), this);
-  log_dock->setObjectName(QStringLiteral("log_dock"));
-  log_dock->setWidget(log_);
-  addDockWidget(Qt::BottomDockWidgetArea, log_dock);
-  tabifyDockWidget(plot_dock, log_dock);
-
+  QDockWidget* log_dock = add_tab(tr("Log"), QStringLiteral("log_dock"), log_);
   calibration_plots_ = new CalibrationPlots;
-  calibration_dock_ = new QDockWidget(tr("Calibration"), this);
-  calibration_dock_->setObjectName(QStringLiteral("calibration_dock"));
-  calibration_dock_->setWidget(calibration_plots_);
-  addDockWidget(Qt::BottomDockWidgetArea, calibration_dock_);
-  tabifyDockWidget(plot_dock, calibration_dock_);
-
+  calibration_dock_ =
+      add_tab(tr("Calibration"), QStringLiteral("calibration_dock"), calibration_plots_);
   history_table_ = new HistoryTable;
-  auto* history_dock = new QDockWidget(tr("History"), this);
-  history_dock->setObjectName(QStringLiteral("history_dock"));
-  history_dock->setWidget(history_table_);
-  addDockWidget(Qt::BottomDockWidgetArea, history_dock);
-  tabifyDockWidget(plot_dock, history_dock);
-
+  QDockWidget* history_dock =
+      add_tab(tr("History"), QStringLiteral("history_dock"), history_table_);
   timing_table_ = new TimingTable;
-  auto* timing_dock = new QDockWidget(tr("Timing"), this);
-  timing_dock->setObjectName(QStringLiteral("timing_dock"));
-  timing_dock->setWidget(timing_table_);
-  addDockWidget(Qt::BottomDockWidgetArea, timing_dock);
-  tabifyDockWidget(plot_dock, timing_dock);
-  plot_dock->raise();
+  QDockWidget* timing_dock = add_tab(tr("Timing"), QStringLiteral("timing_dock"), timing_table_);
+  plot_dock_->raise();
 
   view_menu_ = menuBar()->addMenu(tr("&View"));
-  view_menu_->addAction(plot_dock->toggleViewAction());
+  view_menu_->addAction(plot_dock_->toggleViewAction());
   view_menu_->addAction(calibration_dock_->toggleViewAction());
   view_menu_->addAction(history_dock->toggleViewAction());
   view_menu_->addAction(timing_dock->toggleViewAction());
