@@ -4,7 +4,9 @@
 #include <vector>
 
 #include <QLabel>
+#include <QPaintEvent>
 #include <QSurfaceFormat>
+#include <QTimer>
 #include <QVBoxLayout>
 
 #include <QVTKOpenGLNativeWidget.h>
@@ -102,17 +104,9 @@ void SceneView::SetDefaultSurfaceFormat() {
   QSurfaceFormat::setDefaultFormat(QVTKOpenGLNativeWidget::defaultFormat());
 }
 
-SceneView::SceneView(QWidget* parent) : QWidget(parent), vtk_(std::make_unique<Vtk>()) {
+SceneView::SceneView(QWidget* parent) : QWidget(parent) {
   auto* layout = new QVBoxLayout(this);
   layout->setContentsMargins(0, 0, 0, 0);
-  vtk_->widget = new QVTKOpenGLNativeWidget(this);
-  vtk_->widget->setRenderWindow(vtk_->window);
-  vtk_->window->AddRenderer(vtk_->renderer);
-  // Left drag turns the scene about its centre, the wheel zooms, the middle button pans.
-  vtkNew<vtkInteractorStyleTrackballCamera> style;
-  vtk_->window->GetInteractor()->SetInteractorStyle(style);
-  vtk_->renderer->SetBackground(0.96, 0.96, 0.96);
-  layout->addWidget(vtk_->widget, 1);
   caption_ = new QLabel(this);
   caption_->setWordWrap(true);
   layout->addWidget(caption_);
@@ -121,9 +115,32 @@ SceneView::SceneView(QWidget* parent) : QWidget(parent), vtk_(std::make_unique<V
 
 SceneView::~SceneView() = default;
 
+SceneView::Vtk& SceneView::vtk() {
+  if (vtk_) return *vtk_;
+  vtk_ = std::make_unique<Vtk>();
+  vtk_->widget = new QVTKOpenGLNativeWidget(this);
+  vtk_->widget->setRenderWindow(vtk_->window);
+  vtk_->window->AddRenderer(vtk_->renderer);
+  // Left drag turns the scene about its centre, the wheel zooms, the middle button pans.
+  vtkNew<vtkInteractorStyleTrackballCamera> style;
+  vtk_->window->GetInteractor()->SetInteractorStyle(style);
+  vtk_->renderer->SetBackground(0.96, 0.96, 0.96);
+  static_cast<QVBoxLayout*>(layout())->insertWidget(0, vtk_->widget, 1);
+  rebuild();
+  resetCamera();
+  return *vtk_;
+}
+
+void SceneView::paintEvent(QPaintEvent* event) {
+  QWidget::paintEvent(event);
+  // Painted means on screen: a dock tabbed behind another is shown but never painted.
+  // The widget is made outside the paint.
+  if (!vtk_) QTimer::singleShot(0, this, [this] { vtk(); });
+}
+
 void SceneView::clear() {
   scene_.reset();
-  rebuild();
+  if (vtk_) rebuild();
   caption_->setText(tr("No attempt with camera poses yet: the scene is box 10's newest "
                        "attempt, drawn once one is judged."));
 }
@@ -135,7 +152,6 @@ void SceneView::showSnapshot(std::shared_ptr<const FrameSnapshot> snapshot) {
   if (!scene) return;
   const bool first = !scene_;
   scene_ = std::move(scene);
-  rebuild();
   const AttemptRecord& record = snapshot->attempt->record;
   caption_->setText(
       tr("Attempt %1 (%2): %3 posed views, %4 planes. %5 %6 %7 %8 %9")
@@ -150,6 +166,8 @@ void SceneView::showSnapshot(std::shared_ptr<const FrameSnapshot> snapshot) {
                Swatch(ScenePlaneColor(scene_->boards.empty() ? 0 : scene_->boards[0].plane_id),
                       tr("planes")),
                Swatch(SceneDarkSquareColor(), tr("virtual boards"))));
+  if (!vtk_) return;  // Drawn when first shown.
+  rebuild();
   if (first) resetCamera();
   vtk_->window->Render();
 }
@@ -197,7 +215,7 @@ void SceneView::rebuild() {
 }
 
 void SceneView::resetCamera() {
-  if (!scene_) return;
+  if (!scene_ || !vtk_) return;
   const Eigen::Isometry3d& camera = scene_->world_from_camera;
   const Eigen::Vector3d forward = camera.linear().col(2);
   // Image "down" is the camera's +y; gravity, when known, is down in the world.
@@ -219,11 +237,12 @@ void SceneView::resetCamera() {
 }
 
 QImage SceneView::grab3d() {
-  vtk_->window->Render();
+  vtk().window->Render();
   return vtk_->widget->grabFramebuffer();
 }
 
 QPointF SceneView::worldToImage(const Eigen::Vector3d& world) const {
+  if (!vtk_) return {};
   vtkRenderer* renderer = vtk_->renderer;
   renderer->SetWorldPoint(world.x(), world.y(), world.z(), 1.0);
   renderer->WorldToDisplay();

@@ -47,12 +47,20 @@ class SceneView : public QWidget {
   const std::optional<SceneGeometry>& scene() const { return scene_; }
   // Looks at the whole scene from behind and above the newest camera, gravity down.
   void resetCamera();
-  // The rendered image, and where a world point lands in it (for tests).
+  // The rendered image, and where a world point lands in it (for tests; the view has been
+  // shown).
   QImage grab3d();
   QPointF worldToImage(const Eigen::Vector3d& world) const;
 
+ protected:
+  void paintEvent(QPaintEvent* event) override;
+
  private:
   struct Vtk;
+  // VTK's OpenGL widget is made when the view is first shown: once a window holds an
+  // OpenGL widget, Qt composes the whole window through OpenGL, which costs every video
+  // frame on a machine without a GPU.
+  Vtk& vtk();
   void rebuild();
 
   std::unique_ptr<Vtk> vtk_;

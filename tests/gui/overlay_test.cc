@@ -12,7 +12,9 @@
 #include <vector>
 
 #include <QAction>
+#include <QDockWidget>
 #include <QImage>
+#include <QOpenGLWidget>
 #include <QPainter>
 #include <QSettings>
 #include <QSignalSpy>
@@ -344,6 +346,12 @@ void OverlayTest::CheckLayers(const QString& source, const std::vector<OverlayLa
   // The 3-D view follows the run: boards were placed, so box 10 posed an attempt it shows.
   if (std::find(layers.begin(), layers.end(), OverlayLayer::kBoards) != layers.end()) {
     QVERIFY(window->sceneView()->scene().has_value());
+    // Its OpenGL widget is made when its tab first comes to the front, not before: one
+    // makes Qt compose the whole window through OpenGL, every video frame.
+    QVERIFY(window->findChildren<QOpenGLWidget*>().isEmpty());
+    window->findChild<QDockWidget*>(QStringLiteral("scene_dock"))->raise();
+    QTRY_COMPARE(window->findChildren<QOpenGLWidget*>().size(), 1);
+    window->findChild<QDockWidget*>(QStringLiteral("accelerometer_dock"))->raise();
   }
   const std::string run_history = window->calibrationPlots()->series()->path;
   QCOMPARE(QString::fromStdString(run_history), pipeline.historyPath());

@@ -8,6 +8,7 @@
 
 #include <QApplication>
 #include <QImage>
+#include <QOpenGLWidget>
 #include <QtTest>
 
 #include "devices/runtime.h"
@@ -31,6 +32,7 @@ class SceneViewTest : public QObject {
  private slots:
   void initTestCase();
   void drawsTheNewestAttemptsScene();
+  void drawsWhatCameBeforeItWasShown();
 
  private:
   std::vector<std::shared_ptr<const FrameSnapshot>> snapshots_;
@@ -158,6 +160,22 @@ void SceneViewTest::drawsTheNewestAttemptsScene() {
   view.clear();
   QVERIFY(!view.scene());
   QCOMPARE(CountColor(view.grab3d(), SceneFrustumColor()), 0);
+}
+
+void SceneViewTest::drawsWhatCameBeforeItWasShown() {
+  // Until it is painted the view holds no OpenGL widget; what it was fed meanwhile is
+  // drawn once it is shown.
+  SceneView view;
+  view.resize(800, 640);
+  for (const auto& snapshot : snapshots_) view.showSnapshot(snapshot);
+  QVERIFY(view.scene());
+  QVERIFY(view.findChildren<QOpenGLWidget*>().isEmpty());
+  view.show();
+  QVERIFY(QTest::qWaitForWindowExposed(&view));
+  QTRY_COMPARE(view.findChildren<QOpenGLWidget*>().size(), 1);
+  QOpenGLWidget* drawn = view.findChildren<QOpenGLWidget*>().front();
+  QTRY_VERIFY(CountColor(drawn->grabFramebuffer(), SceneTrajectoryColor()) > 50);
+  QTRY_VERIFY(CountColor(drawn->grabFramebuffer(), SceneFrustumColor()) > 50);
 }
 
 }  // namespace autocal
