@@ -34,6 +34,11 @@ struct Options {
       QStringLiteral("Open a calibration history (the SQLite file autocal writes) in the "
                      "Calibration and History docks."),
       QStringLiteral("file")};
+  QCommandLineOption prior{
+      QStringLiteral("prior"),
+      QStringLiteral("Pre-mission calibration every pipeline starts from and is judged "
+                     "against (any format `autocal` writes; default: the source's own)."),
+      QStringLiteral("file")};
   QCommandLineOption overlays{
       QStringLiteral("overlays"),
       QStringLiteral("Overlay layers to show, comma-separated: lines, snakes, tracks, planes, "
@@ -55,6 +60,7 @@ Options Configure(QCommandLineParser* parser) {
   parser->addOption(options.screenshot);
   parser->addOption(options.quit_after);
   parser->addOption(options.history);
+  parser->addOption(options.prior);
   parser->addOption(options.overlays);
   parser->addOption(options.view);
   parser->addPositionalArgument(
@@ -190,6 +196,10 @@ int main(int argc, char** argv) {
         });
   }
 
+  // Its error is on stderr (the log's path).
+  if (parser.isSet(options.prior) && !window.setPremissionFile(parser.value(options.prior))) {
+    return 2;
+  }
   window.open(positional.isEmpty() ? QString::fromLatin1(autocal::MainWindow::kDefaultSource)
                                    : positional.front());
   bool history_failed = false;

@@ -70,15 +70,12 @@ std::string ErrorJson(const CalibrationError& e) {
 }  // namespace
 
 CameraIntrinsics StartingCalibration(const std::string& input, const SessionInfo& session,
-                                     const RunSettings& settings) {
-  CameraIntrinsics prior;
-  if (settings.prior) {
-    prior = *settings.prior;
-  } else if (session.premission_calibration) {
-    prior = *session.premission_calibration;
-  } else {
-    throw Error(input + " has no pre-mission calibration: give one with --prior");
+                                     const std::optional<CameraIntrinsics>& given,
+                                     const std::string& how_to_give) {
+  if (!given && !session.premission_calibration) {
+    throw Error(input + " has no pre-mission calibration: give one with " + how_to_give);
   }
+  const CameraIntrinsics& prior = given ? *given : *session.premission_calibration;
   if (prior.width != session.width || prior.height != session.height) {
     throw Error("the calibration is for " + std::to_string(prior.width) + "x" +
                 std::to_string(prior.height) + " images, " + input + " has " +
@@ -170,7 +167,7 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   const SessionInfo& session = sequence.session();
   RunReport report;
   report.input = sequence.Describe();
-  report.prior = StartingCalibration(report.input, session, settings);
+  report.prior = StartingCalibration(report.input, session, settings.prior);
   AccelCalibration accel;
   accel.cam_from_accel = session.cam_from_accel;
   const std::unique_ptr<HistoryStore> store = OpenNewHistory(settings);
@@ -209,7 +206,7 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
   LiveRunReport& live = *report.live;
   try {
     const SessionInfo session = source.session();
-    report.prior = StartingCalibration(report.input, session, settings);
+    report.prior = StartingCalibration(report.input, session, settings.prior);
     AccelCalibration accel;
     accel.cam_from_accel = session.cam_from_accel;
     const std::unique_ptr<HistoryStore> store = OpenNewHistory(settings);

@@ -124,10 +124,12 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
                     const LiveRunControl& control = {});
 
 // The pieces of a run that other runs (still shots, devices/still_shot_run.h) share.
-// The calibration a run starts from: settings.prior, else the session's pre-mission
-// calibration, checked against the frames' size. Throws Error.
+// The calibration a run starts from: `prior`, else the session's pre-mission calibration,
+// checked against the frames' size. Throws Error, saying that one is given with
+// `how_to_give` when there is none.
 CameraIntrinsics StartingCalibration(const std::string& input, const SessionInfo& session,
-                                     const RunSettings& settings);
+                                     const std::optional<CameraIntrinsics>& prior,
+                                     const std::string& how_to_give = "--prior");
 // settings.history_path opened for a new run (null when empty); throws Error when the file
 // already holds a history.
 std::unique_ptr<HistoryStore> OpenNewHistory(const RunSettings& settings);

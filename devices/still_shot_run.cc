@@ -30,7 +30,7 @@ RunReport RunStillShots(const Sequence& sequence, const RunSettings& settings,
   };
   RunReport report;
   report.input = sequence.Describe() + ", as still shots";
-  report.prior = StartingCalibration(report.input, sequence.session(), settings);
+  report.prior = StartingCalibration(report.input, sequence.session(), settings.prior);
   AcceptanceOptions acceptance = settings.pipeline.acceptance;
   // One lens at one moment: the trend over the attempts is a constant.
   acceptance.max_order = 0;

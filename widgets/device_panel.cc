@@ -1,5 +1,7 @@
 #include "widgets/device_panel.h"
 
+#include <optional>
+
 #include <QComboBox>
 #include <QDateTime>
 #include <QDir>
@@ -14,6 +16,7 @@
 #include <QVBoxLayout>
 
 #include "devices/device_list.h"
+#include "widgets/calibration_file_field.h"
 #include "widgets/live_session.h"
 
 namespace autocal {
@@ -69,6 +72,7 @@ DevicePanel::DevicePanel(LiveSession* session, QWidget* parent)
       session_(session),
       input_(new QComboBox),
       accel_(new QComboBox),
+      premission_(new CalibrationFileField),
       refresh_(new QPushButton(tr("Refresh"))),
       connect_(new QPushButton(tr("Connect"))),
       disconnect_(new QPushButton(tr("Disconnect"))),
@@ -94,6 +98,7 @@ DevicePanel::DevicePanel(LiveSession* session, QWidget* parent)
   accel_->setToolTip(
       tr("Empty: the input's own; usb, usb:VID:PID, usb:mapping=FILE, a CSV "
          "file, or none"));
+  premission_->setObjectName("premission");
   refresh_->setObjectName("refresh");
   connect_->setObjectName("connect");
   disconnect_->setObjectName("disconnect");
@@ -121,6 +126,7 @@ DevicePanel::DevicePanel(LiveSession* session, QWidget* parent)
   auto* source_form = new QFormLayout(source_box);
   source_form->addRow(tr("Input"), input_);
   source_form->addRow(tr("Accelerometer"), accel_);
+  source_form->addRow(tr("Pre-mission"), premission_);
   source_form->addRow(source_row);
   source_form->addRow(tr("Found"), found_);
   source_form->addRow(message_);
@@ -194,8 +200,10 @@ void DevicePanel::refreshDevices() {
 
 void DevicePanel::connectClicked() {
   QString error;
-  if (!session_->connectSource(input_->currentText().trimmed(), accel_->currentText().trimmed(),
-                               std::nullopt, &error)) {
+  std::optional<CameraIntrinsics> premission;
+  if (!premission_->read(&premission, &error) ||
+      !session_->connectSource(input_->currentText().trimmed(), accel_->currentText().trimmed(),
+                               premission, &error)) {
     showMessage(error, true);
     return;
   }

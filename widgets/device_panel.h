@@ -34,6 +34,7 @@ class QPushButton;
 
 namespace autocal {
 
+class CalibrationFileField;
 class LiveSession;
 
 class DevicePanel : public QWidget {
@@ -44,6 +45,8 @@ class DevicePanel : public QWidget {
   explicit DevicePanel(LiveSession* session, QWidget* parent = nullptr);
 
   LiveSession* session() const { return session_; }
+  // The calibration a connection starts from (empty: the source's own).
+  CalibrationFileField* premissionField() const { return premission_; }
 
  public slots:
   // Lists the cameras and the USB accelerometer again (`autocal devices`).
@@ -58,6 +61,7 @@ class DevicePanel : public QWidget {
   LiveSession* session_;
   QComboBox* input_;
   QComboBox* accel_;
+  CalibrationFileField* premission_;
   QPushButton* refresh_;
   QPushButton* connect_;
   QPushButton* disconnect_;

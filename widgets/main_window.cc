@@ -40,6 +40,7 @@
 #include "devices/sequence.h"
 #include "pipeline/version.h"
 #include "widgets/accel_plot.h"
+#include "widgets/calibration_file_field.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
 #include "widgets/device_panel.h"
@@ -146,6 +147,11 @@ void MainWindow::createActions() {
   QAction* open_history =
       file->addAction(tr("Open &History…"), this, &MainWindow::openHistoryDialog);
   open_history->setShortcut(Qt::CTRL | Qt::SHIFT | Qt::Key_O);
+  file->addSeparator();
+  file->addAction(tr("Pre-mission &Calibration…"), this, &MainWindow::openPremissionDialog);
+  own_premission_action_ = file->addAction(tr("Each Source's &Own Pre-mission Calibration"), this,
+                                           [this] { setPremissionFile(QString()); });
+  own_premission_action_->setEnabled(false);
   file->addSeparator();
   QAction* quit = file->addAction(tr("&Quit"), this, &QWidget::close);
   quit->setShortcut(QKeySequence::Quit);
@@ -387,7 +393,8 @@ void MainWindow::createPipelineDocks() {
   live_session_ = session;
   auto* devices_dock = new QDockWidget(tr("Devices"), this);
   devices_dock->setObjectName(QStringLiteral("devices_dock"));
-  devices_dock->setWidget(new DevicePanel(session));
+  device_panel_ = new DevicePanel(session);
+  devices_dock->setWidget(device_panel_);
   addDockWidget(Qt::RightDockWidgetArea, devices_dock);
   devices_dock->hide();  // View › Devices.
   view_menu_->insertAction(view_menu_->actions().at(6), devices_dock->toggleViewAction());
@@ -442,6 +449,7 @@ void MainWindow::createPipelineDocks() {
     // Its own runtime on its own source; playback pauses so the two do not share the CPU.
     playback_->pause();
     VestCheckDialog dialog(QStringLiteral("sim:office"), QString(), this);
+    dialog.premissionEdit()->setText(premission_file_);
     dialog.exec();
   });
 
@@ -705,13 +713,7 @@ void MainWindow::onOpenFailed(const QString& source, const QString& message) {
   if (!sequence_) {
     video_->showMessage(tr("No recording open.\nFile \u203a Open Recording Folder\u2026"));
   }
-  // Not exec(): a modal loop here would stall playback and whoever called open().
-  auto* box = new QMessageBox(QMessageBox::Critical, tr("Could not open recording"),
-                              tr("Could not open %1").arg(source), QMessageBox::Ok, this);
-  box->setInformativeText(message);
-  box->setTextInteractionFlags(Qt::TextSelectableByMouse);
-  box->setAttribute(Qt::WA_DeleteOnClose);
-  box->open();
+  showErrorBox(tr("Could not open recording"), tr("Could not open %1").arg(source), message);
   emit openFailed(source, message);
 }
 
@@ -910,6 +912,53 @@ void MainWindow::openHistoryDialog() {
       this, tr("Open Calibration History"), dialogStartDir(),
       tr("Calibration histories (*.sqlite *.sqlite3 *.db);;All files (*)"));
   if (!file.isEmpty()) openHistory(file);
+}
+
+void MainWindow::showErrorBox(const QString& title, const QString& text, const QString& detail) {
+  // Not exec(): a modal loop here would stall playback and whoever called.
+  auto* box = new QMessageBox(QMessageBox::Critical, title, text, QMessageBox::Ok, this);
+  box->setInformativeText(detail);
+  box->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  box->setAttribute(Qt::WA_DeleteOnClose);
+  box->open();
+}
+
+void MainWindow::openPremissionDialog() {
+  const QString file = QFileDialog::getOpenFileName(
+      this, tr("Pre-mission Calibration"),
+      premission_file_.isEmpty() ? dialogStartDir() : premission_file_,
+      tr("Calibrations (*.yaml *.yml *.json *.xml *.txt);;All files (*)"));
+  if (!file.isEmpty()) setPremissionFile(file);
+}
+
+bool MainWindow::setPremissionFile(const QString& path) {
+  std::optional<CameraIntrinsics> premission;
+  QString message;
+  if (!ReadCalibrationFile(path, &premission, &message)) {
+    log(tr("Pre-mission calibration not changed: %1").arg(message), true);
+    statusBar()->showMessage(tr("Could not read the calibration: %1").arg(message), 30000);
+    showErrorBox(tr("Could not read the calibration"), tr("Could not read %1").arg(path), message);
+    return false;
+  }
+  premission_file_ = path;
+  own_premission_action_->setEnabled(premission.has_value());
+  device_panel_->premissionField()->setPath(path);
+  pipeline_->setPremission(premission);
+  if (premission) {
+    log(tr("Pre-mission calibration from %1: %2x%3, fx %4 fy %5 cx %6 cy %7 px")
+            .arg(path)
+            .arg(premission->width)
+            .arg(premission->height)
+            .arg(premission->fx, 0, 'f', 1)
+            .arg(premission->fy, 0, 'f', 1)
+            .arg(premission->cx, 0, 'f', 1)
+            .arg(premission->cy, 0, 'f', 1));
+  } else {
+    log(tr("Pre-mission calibration: each source's own"));
+  }
+  // The run so far started from the other calibration.
+  if (sequence_ && !start_pipeline_on_frame_) pipeline_->start(sequence_);
+  return true;
 }
 
 void MainWindow::showAbout() {

@@ -30,6 +30,7 @@ namespace autocal {
 
 class AccelPlot;
 class CalibrationPlots;
+class DevicePanel;
 struct CalibrationSeries;
 class FrameLoader;
 class HistoryOpener;
@@ -70,6 +71,8 @@ class MainWindow : public QMainWindow {
   // The open recording (null until one opened) and what it was opened from.
   const Sequence* sequence() const { return sequence_.get(); }
   const QString& source() const { return source_; }
+  // The pre-mission calibration file set by hand (empty: each source's own).
+  const QString& premissionFile() const { return premission_file_; }
   // The action that switches an overlay layer, and the one that picks a view mode.
   QAction* overlayAction(OverlayLayer layer) const;
   QAction* viewModeAction(VideoView::ViewMode mode) const;
@@ -87,6 +90,12 @@ class MainWindow : public QMainWindow {
   // Opens a calibration history file (SQLite, as `autocal run` writes) in the background and
   // shows it in the Calibration and History docks. On failure the history shown stays.
   void openHistory(const QString& path);
+  // The pre-mission calibration every pipeline starts from and is judged against instead of
+  // the source's own: a file in any format `autocal` reads; empty: each source's own. The
+  // open recording's run starts again from it, and the Devices dock and the vest check
+  // connect with it. False, with the reason logged and shown, when the file cannot be read
+  // (what was set stays).
+  bool setPremissionFile(const QString& path);
 
  signals:
   void opened(const QString& source);
@@ -139,7 +148,10 @@ class MainWindow : public QMainWindow {
   void openVideoDialog();
   void openSimulationDialog();
   void openHistoryDialog();
+  void openPremissionDialog();
   void showAbout();
+  // A message box that does not block: the error's `detail` selectable for copying.
+  void showErrorBox(const QString& title, const QString& text, const QString& detail);
   // The one logging path: the log dock and stderr.
   void log(const QString& message, bool is_error = false);
   QString dialogStartDir() const;
@@ -152,6 +164,7 @@ class MainWindow : public QMainWindow {
   std::shared_ptr<const Sequence> sequence_;
   QString source_;
   QString last_path_;
+  QString premission_file_;
 
   VideoView* video_ = nullptr;
   AccelPlot* plot_ = nullptr;
@@ -161,6 +174,7 @@ class MainWindow : public QMainWindow {
   ThresholdPanel* threshold_panel_ = nullptr;
   SceneView* scene_view_ = nullptr;
   LiveSession* live_session_ = nullptr;
+  DevicePanel* device_panel_ = nullptr;
   QDockWidget* plot_dock_ = nullptr;
   QDockWidget* calibration_dock_ = nullptr;
   QPlainTextEdit* log_ = nullptr;
@@ -198,6 +212,7 @@ class MainWindow : public QMainWindow {
   QAction* start_action_ = nullptr;
   QAction* end_action_ = nullptr;
   QAction* follow_action_ = nullptr;
+  QAction* own_premission_action_ = nullptr;  // Back to each source's own calibration.
   std::vector<std::pair<OverlayLayer, QAction*>> layer_actions_;
 };
 

@@ -15,6 +15,7 @@
 #include <QtConcurrent/QtConcurrentRun>
 #include <opencv2/core.hpp>
 
+#include "devices/offline_runner.h"
 #include "devices/runtime.h"
 #include "devices/sequence.h"
 #include "pipeline/history_store.h"
@@ -101,9 +102,12 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
   if (!sequence_) return;
 
   const SessionInfo& session = sequence_->session();
-  if (!session.premission_calibration) {
-    emit failed(tr("%1 has no pre-mission calibration: the pipeline needs one to start from")
-                    .arg(QString::fromStdString(sequence_->Describe())));
+  CameraIntrinsics prior;
+  try {
+    prior = StartingCalibration(sequence_->Describe(), session, premission_,
+                                "File › Pre-mission Calibration… (or --prior)");
+  } catch (const std::exception& e) {
+    emit failed(QString::fromStdString(e.what()));
     return;
   }
   history_dir_ = std::make_unique<QTemporaryDir>(QDir::tempPath() +
@@ -120,7 +124,6 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
   emit started(frame_count_);
   updateCurrent();
 
-  const CameraIntrinsics prior = *session.premission_calibration;
   AccelCalibration accel;
   accel.cam_from_accel = session.cam_from_accel;
   run_->thread =

@@ -23,6 +23,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <QElapsedTimer>
@@ -66,9 +67,16 @@ class PipelineController : public QObject {
   // Stops the run and waits for its threads (at most the frame and the solve under way).
   ~PipelineController() override;
 
-  // Stops the run under way and starts one over `sequence` (none: stops). A sequence
-  // without a pre-mission calibration cannot be run: failed() says so.
+  // Stops the run under way and starts one over `sequence` (none: stops), from
+  // premission(), else the sequence's own pre-mission calibration. Without either, or with
+  // one for another image size, it cannot be run: failed() says so.
   void start(std::shared_ptr<const Sequence> sequence);
+  // The calibration runs start from, given by hand (none: each recording's own); applies
+  // from the next start().
+  void setPremission(std::optional<CameraIntrinsics> premission) {
+    premission_ = std::move(premission);
+  }
+  const std::optional<CameraIntrinsics>& premission() const { return premission_; }
   // Stops the run under way; what it found stays.
   void stop();
   // The options runs start with (PipelineOptions' defaults until set).
@@ -146,6 +154,7 @@ class PipelineController : public QObject {
   void onRectified();
 
   std::shared_ptr<const Sequence> sequence_;
+  std::optional<CameraIntrinsics> premission_;
   std::unique_ptr<Run> run_;
   std::vector<std::unique_ptr<Run>> stopping_;  // Stopped, not yet ended.
   uint64_t generation_ = 0;  // Of the newest run; older runs' reports are dropped.

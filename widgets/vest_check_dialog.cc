@@ -18,8 +18,7 @@
 #include <QTableWidget>
 #include <QVBoxLayout>
 
-#include "pipeline/calibration_io.h"
-#include "pipeline/error.h"
+#include "widgets/calibration_file_field.h"
 #include "widgets/vest_check_controller.h"
 #include "widgets/vest_report.h"
 
@@ -82,23 +81,14 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   accel_ = new QLineEdit(accel, connect_page);
   accel_->setPlaceholderText(tr("the source's own"));
   accel_->setToolTip(tr("usb for the vest's USB accelerometer; empty: the source's own"));
-  premission_ = new QLineEdit(connect_page);
-  premission_->setPlaceholderText(tr("the source's own (session.json)"));
-  auto* browse = new QPushButton(tr("Browse…"), connect_page);
-  connect(browse, &QPushButton::clicked, this, [this] {
-    const QString path = QFileDialog::getOpenFileName(this, tr("Pre-mission calibration"));
-    if (!path.isEmpty()) premission_->setText(path);
-  });
-  auto* premission_row = new QHBoxLayout;
-  premission_row->addWidget(premission_);
-  premission_row->addWidget(browse);
+  premission_ = new CalibrationFileField(connect_page);
   duration_ = Spin(defaults.duration_s, 600, 0, tr(" s"), connect_page);
   focal_tol_ = Spin(defaults.tolerance.focal_percent, 20, 2, tr(" %"), connect_page);
   principal_tol_ = Spin(defaults.tolerance.principal_px, 100, 1, tr(" px"), connect_page);
   distortion_tol_ = Spin(defaults.tolerance.distortion_px, 100, 1, tr(" px"), connect_page);
   form->addRow(tr("Camera:"), input_);
   form->addRow(tr("Accelerometer:"), accel_);
-  form->addRow(tr("Pre-mission calibration:"), premission_row);
+  form->addRow(tr("Pre-mission calibration:"), premission_);
   form->addRow(tr("Walk for:"), duration_);
   form->addRow(tr("Focal length within:"), focal_tol_);
   form->addRow(tr("Principal point within:"), principal_tol_);
@@ -215,18 +205,17 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
 
 VestCheckDialog::~VestCheckDialog() = default;
 
+QLineEdit* VestCheckDialog::premissionEdit() const { return premission_->edit(); }
+
 VestCheckDialog::Page VestCheckDialog::page() const { return Page(pages_->currentIndex()); }
 
 void VestCheckDialog::startCheck() {
   connect_error_->clear();
   std::optional<CameraIntrinsics> premission;
-  if (!premission_->text().isEmpty()) {
-    try {
-      premission = ReadCalibration(premission_->text().toStdString());
-    } catch (const std::exception& e) {
-      connect_error_->setText(QString::fromStdString(e.what()));
-      return;
-    }
+  QString error;
+  if (!premission_->read(&premission, &error)) {
+    connect_error_->setText(error);
+    return;
   }
   VestCheckOptions options;
   options.duration_s = duration_->value();

@@ -38,6 +38,7 @@ class QTableWidget;
 
 namespace autocal {
 
+class CalibrationFileField;
 class VestCheckController;
 
 class VestCheckDialog : public QDialog {
@@ -58,7 +59,7 @@ class VestCheckDialog : public QDialog {
   // Fields of the connect page, for tests and the main window.
   QLineEdit* inputEdit() const { return input_; }
   QLineEdit* accelEdit() const { return accel_; }
-  QLineEdit* premissionEdit() const { return premission_; }
+  QLineEdit* premissionEdit() const;
   QDoubleSpinBox* durationSpin() const { return duration_; }
 
  public slots:
@@ -82,7 +83,7 @@ class VestCheckDialog : public QDialog {
   // Connect.
   QLineEdit* input_ = nullptr;
   QLineEdit* accel_ = nullptr;
-  QLineEdit* premission_ = nullptr;
+  CalibrationFileField* premission_ = nullptr;
   QDoubleSpinBox* duration_ = nullptr;
   QDoubleSpinBox* focal_tol_ = nullptr;
   QDoubleSpinBox* principal_tol_ = nullptr;

@@ -14,3 +14,24 @@ expect_run() {
   [[ $got -eq $code ]] || fail "run $* exits $got, expected $code: $(cat "$dir/err")"
   grep -q -- "$pattern" "$dir/err" || fail "run $*: expected '$pattern' in: $(cat "$dir/err")"
 }
+
+# write_calibration FILE WIDTH HEIGHT FX FY CX CY: an OpenCV YAML calibration without
+# distortion, as `autocal run --export --format opencv` writes one.
+write_calibration() {
+  cat >"$1" <<YAML
+%YAML:1.0
+---
+image_width: $2
+image_height: $3
+camera_matrix: !!opencv-matrix
+   rows: 3
+   cols: 3
+   dt: d
+   data: [ $4, 0., $6, 0., $5, $7, 0., 0., 1. ]
+distortion_coefficients: !!opencv-matrix
+   rows: 1
+   cols: 5
+   dt: d
+   data: [ 0., 0., 0., 0., 0. ]
+YAML
+}

@@ -6,7 +6,7 @@ set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "$0")/common.bash"
 
 "$autocal" simulate --scenario office --lens sonnar --seconds 4 --resolution 640x480 \
   --out "$dir/rec" >/dev/null 2>&1
@@ -14,22 +14,7 @@ mkdir "$dir/stills"
 ls "$dir/rec/cam0/data" | awk 'NR % 6 == 1' | while read -r f; do cp "$dir/rec/cam0/data/$f" "$dir/stills/"; done
 
 IFS=, read -r _ fx fy cx cy _ <<<"$(sed -n 2p "$dir/rec/ground_truth/intrinsics.csv")"
-cat >"$dir/prior.yaml" <<YAML
-%YAML:1.0
----
-image_width: 640
-image_height: 480
-camera_matrix: !!opencv-matrix
-   rows: 3
-   cols: 3
-   dt: d
-   data: [ $fx, 0., $cx, 0., $fy, $cy, 0., 0., 1. ]
-distortion_coefficients: !!opencv-matrix
-   rows: 1
-   cols: 5
-   dt: d
-   data: [ 0., 0., 0., 0., 0. ]
-YAML
+write_calibration "$dir/prior.yaml" 640 480 "$fx" "$fy" "$cx" "$cy"
 
 "$autocal" distortion --images "$dir/stills/*.png" --prior "$dir/prior.yaml" \
   --summary "$dir/summary.json" --out "$dir/estimate.yaml" 2>"$dir/progress"

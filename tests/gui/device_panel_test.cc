@@ -3,11 +3,13 @@
 // real time it shows the devices' rates and the frames going through the pipeline; Record
 // writes a native recording folder while the session runs, which passes the checks
 // `autocal info` makes; Disconnect ends the session.
+#include <cmath>
 #include <memory>
 
 #include <QComboBox>
 #include <QDir>
 #include <QDoubleSpinBox>
+#include <QFile>
 #include <QLabel>
 #include <QLineEdit>
 #include <QPlainTextEdit>
@@ -19,6 +21,8 @@
 #include "devices/device_list.h"
 #include "devices/inspect.h"
 #include "devices/sequence.h"
+#include "pipeline/calibration_io.h"
+#include "widgets/calibration_file_field.h"
 #include "widgets/device_panel.h"
 #include "widgets/live_session.h"
 
@@ -48,6 +52,7 @@ class DevicePanelTest : public QObject {
  private slots:
   void saysWhatIsMissingWithoutHardware();
   void connectsRecordsAndDisconnects();
+  void startsFromThePremissionCalibrationGiven();
 };
 
 void DevicePanelTest::saysWhatIsMissingWithoutHardware() {
@@ -139,6 +144,49 @@ void DevicePanelTest::connectsRecordsAndDisconnects() {
   QTRY_VERIFY(Text(panel, "camera").startsWith("disconnected"));
   QVERIFY(Find<QPushButton>(panel, "connect")->isEnabled());
   QVERIFY(!Find<QPushButton>(panel, "record")->isEnabled());
+}
+
+void DevicePanelTest::startsFromThePremissionCalibrationGiven() {
+  LiveSession session;
+  DevicePanel panel(&session);
+  panel.show();
+  QVERIFY(QTest::qWaitForWindowExposed(&panel));
+  Find<QComboBox>(panel, "input")->setCurrentText(kSimSource);
+  QTemporaryDir temp;
+  QVERIFY(temp.isValid());
+
+  // A file that is no calibration: the reader's message naming it, and no connection.
+  const QString bad = temp.filePath("bad.yaml");
+  {
+    QFile file(bad);
+    QVERIFY(file.open(QIODevice::WriteOnly));
+    file.write("%YAML:1.0\nimage_width: 320\n");
+  }
+  panel.premissionField()->setPath(bad);
+  QTest::mouseClick(Find<QPushButton>(panel, "connect"), Qt::LeftButton);
+  QVERIFY2(Text(panel, "message").contains(bad), qPrintable(Text(panel, "message")));
+  QVERIFY(!session.isConnected());
+
+  // A calibration 3% longer in focal length than the simulator's own: the live pipeline
+  // starts from it (the first frames' working calibration is the one it starts from).
+  const CameraIntrinsics own =
+      *OpenSequence(kSimSource.toStdString())->session().premission_calibration;
+  CameraIntrinsics given = own;
+  given.fx *= 1.03;
+  given.fy *= 1.03;
+  const QString good = temp.filePath("vest.yaml");
+  WriteCalibration(good.toStdString(), given, CalibrationFormat::kOpenCv);
+  panel.premissionField()->setPath(good);
+  QSignalSpy connected(&session, &LiveSession::connected);
+  QTest::mouseClick(Find<QPushButton>(panel, "connect"), Qt::LeftButton);
+  QTRY_COMPARE_WITH_TIMEOUT(connected.count(), 1, kTimeoutMs);
+  QTRY_VERIFY_WITH_TIMEOUT(session.latestSnapshot() != nullptr, kTimeoutMs);
+  const double fx = session.latestSnapshot()->working.fx;
+  QVERIFY2(std::abs(fx - given.fx) < std::abs(fx - own.fx),
+           qPrintable(QString("fx %1, given %2, own %3").arg(fx).arg(given.fx).arg(own.fx)));
+  QSignalSpy disconnected(&session, &LiveSession::disconnected);
+  session.disconnectSource();
+  QTRY_COMPARE_WITH_TIMEOUT(disconnected.count(), 1, kTimeoutMs);
 }
 
 }  // namespace autocal

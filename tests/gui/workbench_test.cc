@@ -16,8 +16,10 @@
 #include <QDockWidget>
 #include <QDoubleSpinBox>
 #include <QElapsedTimer>
+#include <QFile>
 #include <QImage>
 #include <QLabel>
+#include <QLineEdit>
 #include <QMessageBox>
 #include <QPlainTextEdit>
 #include <QSettings>
@@ -32,6 +34,8 @@
 
 #include "devices/recording_writer.h"
 #include "devices/sequence.h"
+#include "devices/session_io.h"
+#include "pipeline/calibration_io.h"
 #include "widgets/accel_plot.h"
 #include "widgets/frame_loader.h"
 #include "widgets/image_convert.h"
@@ -143,6 +147,7 @@ class WorkbenchTest : public QObject {
   void screenshotIsNotBlank();
   void statusTextFitsAtDefaultSize();
   void timingDockShowsTheRunsBoxTimes();
+  void runsFromThePremissionCalibrationGiven();
 
  private:
   // A shown main window with `source` open and its first frame on screen.
@@ -521,6 +526,74 @@ void WorkbenchTest::badPathKeepsRecordingOpen() {
   window->playback()->pause();
   window->playback()->seekToIndex(12);
   EXPECT_SHOWN(*window, 12);
+}
+
+void WorkbenchTest::runsFromThePremissionCalibrationGiven() {
+  // A recording without a pre-mission calibration, as a video with its CSV would be.
+  QTemporaryDir dir;
+  QVERIFY(dir.isValid());
+  const QString folder = dir.filePath(QStringLiteral("walk"));
+  const auto simulated = OpenSequence(kSimSource.toStdString());
+  QVERIFY(WriteSequence(*simulated, folder.toStdString()));
+  const std::string session_file = (folder + QStringLiteral("/session.json")).toStdString();
+  SessionInfo session = ReadSessionFile(session_file);
+  const CameraIntrinsics own = *session.premission_calibration;
+  session.premission_calibration.reset();
+  WriteSessionFile(session_file, session);
+
+  auto window = std::make_unique<MainWindow>();
+  window->show();
+  PipelineController& pipeline = *window->pipelineController();
+  QSignalSpy failed(&pipeline, &PipelineController::failed);
+  QSignalSpy started(&pipeline, &PipelineController::started);
+  window->open(folder);
+  QVERIFY(failed.wait(kOpenTimeoutMs));
+  const QString why = failed.front().at(0).toString();
+  QVERIFY2(why.contains(QStringLiteral("no pre-mission calibration")) &&
+               why.contains(QStringLiteral("Pre-mission Calibration")),
+           qPrintable(why));
+  QCOMPARE(started.count(), 0);
+
+  // A file that is no calibration: refused with the reader's message, nothing changes.
+  const QString bad = dir.filePath(QStringLiteral("bad.yaml"));
+  {
+    QFile file(bad);
+    QVERIFY(file.open(QIODevice::WriteOnly));
+    file.write("%YAML:1.0\nimage_width: 320\n");
+  }
+  QVERIFY(!window->setPremissionFile(bad));
+  QVERIFY(window->premissionFile().isEmpty());
+  QMessageBox* box = nullptr;
+  QTRY_VERIFY((box = window->findChild<QMessageBox*>()) != nullptr && box->isVisible());
+  QVERIFY2(box->informativeText().contains(QStringLiteral("bad.yaml")),
+           qPrintable(box->informativeText()));
+  box->close();
+  QCOMPARE(started.count(), 0);
+
+  // The calibration given, 3% longer in focal length than the simulator's own: the run
+  // starts again, from it.
+  CameraIntrinsics given = own;
+  given.fx *= 1.03;
+  given.fy *= 1.03;
+  const QString good = dir.filePath(QStringLiteral("vest.yaml"));
+  WriteCalibration(good.toStdString(), given, CalibrationFormat::kOpenCv);
+  QVERIFY(window->setPremissionFile(good));
+  QCOMPARE(window->premissionFile(), good);
+  QCOMPARE(started.count(), 1);
+  QTRY_VERIFY_WITH_TIMEOUT(pipeline.snapshot(0) != nullptr, kOpenTimeoutMs);
+  QVERIFY(std::abs(pipeline.snapshot(0)->working.fx - given.fx) < 1e-6);
+  QVERIFY(std::abs(pipeline.snapshot(0)->working.cy - given.cy) < 1e-6);
+  // The Devices dock connects with it too.
+  const auto* field = window->findChild<QLineEdit*>(QStringLiteral("premission_path"));
+  QVERIFY(field);
+  QCOMPARE(field->text(), good);
+
+  // Back to the recording's own: there is none, so the run cannot start.
+  failed.clear();
+  QVERIFY(window->setPremissionFile(QString()));
+  QTRY_COMPARE_WITH_TIMEOUT(failed.count(), 1, kOpenTimeoutMs);
+  QCOMPARE(started.count(), 1);
+  QVERIFY(field->text().isEmpty());
 }
 
 void WorkbenchTest::settingsPersist() {
