@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <fstream>
-#include <mutex>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -13,6 +12,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "devices/csv.h"
+#include "devices/decoder_pool.h"
 #include "devices/inspect.h"
 #include "devices/recording_reader.h"
 #include "devices/session_io.h"
@@ -174,8 +174,8 @@ void ReadEurocSensors(const fs::path& mav0, SessionInfo* session) {
 
 // --- Video ---------------------------------------------------------------------------------
 
-// Frames decoded from a video file. One capture, guarded by a mutex; reading frames in order
-// never seeks, other orders seek with CAP_PROP_POS_FRAMES.
+// Frames decoded from a video file, by a few decoders so that each reader keeps its own
+// place (devices/decoder_pool.h).
 class VideoSequence : public Sequence {
  public:
   VideoSequence(std::string path, std::string description, SessionInfo session,
@@ -187,8 +187,12 @@ class VideoSequence : public Sequence {
         frame_times_ns_(std::move(frame_times_ns)),
         accel_(std::move(accel)),
         warnings_(std::move(warnings)),
-        capture_(path_) {
-    if (!capture_.isOpened()) throw Error(path_, 0, "cannot be opened as a video any more");
+        captures_(kMaxDecoders),
+        pool_(kMaxDecoders, kMaxFramesReadOn) {
+    if (!captures_[0].open(path_)) {
+      throw Error(path_, 0, "cannot be opened as a video any more");
+    }
+    pool_.Release(0, 0);
   }
 
   std::string Describe() const override { return description_; }
@@ -202,28 +206,40 @@ class VideoSequence : public Sequence {
     if (index >= frame_times_ns_.size()) {
       throw Error(path_, 0, "frame " + std::to_string(index) + " is beyond the last frame");
     }
-    std::lock_guard lock(mutex_);
-    if (index != next_index_) capture_.set(cv::CAP_PROP_POS_FRAMES, static_cast<double>(index));
-    cv::Mat frame;
-    if (!capture_.read(frame) || frame.empty()) {
-      next_index_ = frame_times_ns_.size();  // Unknown position: seek next time.
-      throw Error(path_, 0, "frame " + std::to_string(index) + " cannot be decoded");
+    const DecoderPool::Lease lease = pool_.Acquire(index);
+    cv::VideoCapture& capture = captures_[lease.slot];
+    size_t next = lease.next;
+    if (!capture.isOpened() && capture.open(path_)) next = 0;
+    bool read = capture.isOpened();
+    if (read && next != index) {
+      if (next < index && index - next <= kMaxFramesReadOn) {
+        for (; read && next < index; ++next) read = capture.grab();
+      } else {
+        read = capture.set(cv::CAP_PROP_POS_FRAMES, static_cast<double>(index));
+      }
     }
-    next_index_ = index + 1;
+    cv::Mat frame;
+    read = read && capture.read(frame) && !frame.empty();
+    pool_.Release(lease.slot, read ? index + 1 : DecoderPool::kUnknown);
+    if (!read) throw Error(path_, 0, "frame " + std::to_string(index) + " cannot be decoded");
     if (frame.channels() == 1) cv::cvtColor(frame, frame, cv::COLOR_GRAY2BGR);
     return frame;
   }
 
  private:
+  // The pipeline, the display and one more reader.
+  static constexpr size_t kMaxDecoders = 3;
+  // Frames decoded and dropped rather than seeking: a second of video at 30 frames/s.
+  static constexpr size_t kMaxFramesReadOn = 30;
+
   std::string path_;
   std::string description_;
   SessionInfo session_;
   std::vector<int64_t> frame_times_ns_;
   std::vector<AccelSample> accel_;
   std::vector<std::string> warnings_;
-  mutable std::mutex mutex_;
-  mutable cv::VideoCapture capture_;
-  mutable size_t next_index_ = 0;
+  mutable std::vector<cv::VideoCapture> captures_;  // Each used by its pool lease alone.
+  mutable DecoderPool pool_;
 };
 
 }  // namespace
