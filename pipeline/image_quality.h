@@ -36,7 +36,7 @@ struct ImageQualityOptions {
   // signs at once (blur up by this much, contrast or noise below these fractions of the
   // usual) make a frame fogged. One alone is a scene's own change (a plain wall, a quick
   // turn, another exposure).
-  double fog_blur_increase = 0.04;
+  double fog_blur_increase = 0.06;
   double fog_contrast_ratio = 0.8;
   double fog_noise_ratio = 0.75;
   double min_contrast_ratio = 0.5;       // Contrast below this fraction alone: glare, fog.

@@ -9,8 +9,10 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "devices/sim/simulator.h"
+#include "tests/test_util.h"
 
 namespace autocal {
 namespace {
@@ -144,6 +146,61 @@ void ExpectFindsTheBurst(const std::string& lens, const std::string& resolution)
 
 TEST(ImageQuality, GateFindsFogAndNoiseOnTessar640x480) { ExpectFindsTheBurst("tessar", "640x480"); }
 TEST(ImageQuality, GateFindsFogAndNoiseOnSonnar320x240) { ExpectFindsTheBurst("sonnar", "320x240"); }
+
+// The gate over a walk after H.264 (libx264's defaults, as a camera's recording would be):
+// frames marked degraded, and those marked among the disturbed ones.
+struct Marked {
+  int frames = 0, degraded = 0, disturbed = 0, degraded_disturbed = 0;
+};
+Marked JudgeCompressed(const std::string& spec) {
+  const Scenario scenario = ParseScenarioSpec(spec);
+  const std::unique_ptr<Sequence> sequence = MakeSimulatedSequence(scenario);
+  test::TempDir tmp;
+  const std::string path = (tmp.path() / "walk.mp4").string();
+  {
+    const cv::Mat first = sequence->LoadFrame(0);
+    cv::VideoWriter writer(path, cv::VideoWriter::fourcc('a', 'v', 'c', '1'),
+                           scenario.fps, first.size());
+    EXPECT_TRUE(writer.isOpened()) << "no H.264 encoder in OpenCV's FFmpeg";
+    for (size_t i = 0; i < sequence->frame_count(); ++i) writer.write(sequence->LoadFrame(i));
+  }
+  cv::VideoCapture capture(path);
+  ImageQualityGate gate;
+  Marked marked;
+  cv::Mat frame;
+  for (size_t i = 0; i < sequence->frame_count() && capture.read(frame); ++i) {
+    const int64_t t_ns = sequence->frame_time_ns(i);
+    const double t = scenario.SecondsAt(t_ns);
+    bool disturbed = false;
+    for (const Disturbance& disturbance : scenario.disturbances) {
+      disturbed |= t >= disturbance.start.Seconds(scenario.seconds) &&
+                   t < disturbance.end.Seconds(scenario.seconds);
+    }
+    const bool degraded = gate.Judge(t_ns, MeasureImageQuality(frame)).has_value();
+    ++marked.frames;
+    marked.degraded += degraded;
+    marked.disturbed += disturbed;
+    marked.degraded_disturbed += degraded && disturbed;
+  }
+  return marked;
+}
+
+// The encoder quantizes harder while the camera turns fast: the image blurs a little and
+// the measured noise halves (office walk at 640x480, 3.5-4.5 s in). That is no fog.
+TEST(ImageQuality, VideoCompressionIsNotFog) {
+  const Marked marked = JudgeCompressed("office,seconds=5,resolution=640x480");
+  EXPECT_EQ(marked.frames, 150);
+  EXPECT_EQ(marked.degraded, 0);
+}
+
+// Fog and the noise burst are still caught through the encoder, every frame.
+TEST(ImageQuality, GateFindsFogAndNoiseThroughVideoCompression) {
+  const Marked marked = JudgeCompressed("transient,seconds=14,lens=sonnar,resolution=320x240");
+  EXPECT_EQ(marked.frames, 420);
+  EXPECT_GT(marked.disturbed, 100);
+  EXPECT_EQ(marked.degraded_disturbed, marked.disturbed);
+  EXPECT_EQ(marked.degraded, marked.disturbed);
+}
 
 TEST(ImageQuality, ALastingChangeBecomesTheUsual) {
   ImageQualityOptions options;
