@@ -13,6 +13,7 @@
 #include <QLineEdit>
 #include <QPlainTextEdit>
 #include <QPushButton>
+#include <QScrollArea>
 #include <QVBoxLayout>
 
 #include "devices/device_list.h"
@@ -57,15 +58,39 @@ QString StateText(const LiveSession::DeviceStatus& device, const char* rate_unit
   return text;
 }
 
-QLabel* WrappingLabel(const QString& name) {
-  auto* label = new QLabel;
-  label->setObjectName(name);
-  label->setWordWrap(true);
-  label->setTextInteractionFlags(Qt::TextSelectableByMouse);
-  return label;
-}
-
 }  // namespace
+
+// A word-wrapped label that claims, as its minimum height, what its text needs at its
+// width. Qt's form layout sized a row for the line count the label had when it was laid
+// out, so a status that grew to a second line was cut in half.
+class FittedLabel : public QLabel {
+ public:
+  explicit FittedLabel(const QString& name) {
+    setObjectName(name);
+    setWordWrap(true);
+    setTextInteractionFlags(Qt::TextSelectableByMouse);
+  }
+  void setFittedText(const QString& text) {
+    setText(text);
+    fit();
+  }
+
+ protected:
+  void resizeEvent(QResizeEvent* event) override {
+    QLabel::resizeEvent(event);
+    fit();
+  }
+
+ private:
+  // Not before the layout has given a width: a few pixels wide, a sentence is a column.
+  static constexpr int kMinFittedWidth = 60;
+
+  void fit() {
+    if (width() < kMinFittedWidth) return;
+    const int needed = heightForWidth(width());
+    if (needed > 0 && needed != minimumHeight()) setMinimumHeight(needed);
+  }
+};
 
 DevicePanel::DevicePanel(LiveSession* session, QWidget* parent)
     : QWidget(parent),
@@ -77,16 +102,16 @@ DevicePanel::DevicePanel(LiveSession* session, QWidget* parent)
       connect_(new QPushButton(tr("Connect"))),
       disconnect_(new QPushButton(tr("Disconnect"))),
       found_(new QPlainTextEdit),
-      message_(WrappingLabel("message")),
-      camera_(WrappingLabel("camera")),
-      accelerometer_(WrappingLabel("accelerometer")),
-      frames_(WrappingLabel("frames")),
-      reports_(WrappingLabel("reports")),
-      calibration_(WrappingLabel("calibration")),
+      message_(new FittedLabel("message")),
+      camera_(new FittedLabel("camera")),
+      accelerometer_(new FittedLabel("accelerometer")),
+      frames_(new FittedLabel("frames")),
+      reports_(new FittedLabel("reports")),
+      calibration_(new FittedLabel("calibration")),
       offset_(new QDoubleSpinBox),
       folder_(new QLineEdit(NewRecordingFolder())),
       record_(new QPushButton(tr("Record"))),
-      recording_(WrappingLabel("recording")) {
+      recording_(new FittedLabel("recording")) {
   input_->setObjectName("input");
   input_->setEditable(true);
   input_->setToolTip(
@@ -146,11 +171,22 @@ DevicePanel::DevicePanel(LiveSession* session, QWidget* parent)
   record_form->addRow(record_);
   record_form->addRow(recording_);
 
-  auto* layout = new QVBoxLayout(this);
+  // In a scroll area: a dock shorter than the panel scrolls it rather than squeezing its
+  // lines or making the window taller than a laptop's screen.
+  auto* content = new QWidget;
+  auto* layout = new QVBoxLayout(content);
   layout->addWidget(source_box);
   layout->addWidget(status_box);
   layout->addWidget(record_box);
   layout->addStretch();
+  auto* scroll = new QScrollArea;
+  scroll->setWidget(content);
+  scroll->setWidgetResizable(true);
+  scroll->setFrameShape(QFrame::NoFrame);
+  scroll->setHorizontalScrollBarPolicy(Qt::ScrollBarAlwaysOff);
+  auto* outer = new QVBoxLayout(this);
+  outer->setContentsMargins(0, 0, 0, 0);
+  outer->addWidget(scroll);
   setMinimumWidth(320);
 
   connect(refresh_, &QPushButton::clicked, this, &DevicePanel::refreshDevices);
@@ -171,7 +207,7 @@ DevicePanel::DevicePanel(LiveSession* session, QWidget* parent)
           [this](const QString& why) { showMessage(tr("Recording failed: %1").arg(why), true); });
   connect(session_, &LiveSession::recordingStopped, this,
           [this](const QString& dir, const QString& summary) {
-            recording_->setText(tr("Recorded %1 to %2").arg(summary, dir));
+            recording_->setFittedText(tr("Recorded %1 to %2").arg(summary, dir));
             folder_->setText(NewRecordingFolder());
           });
 
@@ -213,7 +249,7 @@ void DevicePanel::connectClicked() {
 void DevicePanel::recordClicked() {
   if (session_->isRecording()) {
     session_->stopRecording();
-    recording_->setText(tr("Stopping: writing the last frames ..."));
+    recording_->setFittedText(tr("Stopping: writing the last frames ..."));
     return;
   }
   QString error;
@@ -224,7 +260,7 @@ void DevicePanel::recordClicked() {
 }
 
 void DevicePanel::showMessage(const QString& text, bool error) {
-  message_->setText(text);
+  message_->setFittedText(text);
   message_->setStyleSheet(error ? "color: #b00020;" : "");
 }
 
@@ -236,27 +272,29 @@ void DevicePanel::showStatus() {
   disconnect_->setEnabled(busy);
   input_->setEnabled(!busy);
   accel_->setEnabled(!busy);
-  camera_->setText(StateText(status.camera, "frames/s"));
-  accelerometer_->setText(StateText(status.accelerometer, "samples/s"));
-  frames_->setText(tr("%1 received, %2 processed, %3 dropped")
-                       .arg(status.frames_received)
-                       .arg(status.frames_done)
-                       .arg(status.frames_dropped));
-  reports_->setText(tr("%1 samples dropped, %2 late reports (%3 missing), %4 items out of order")
-                        .arg(status.accel_dropped)
-                        .arg(status.accel_late_reports)
-                        .arg(status.accel_missing_reports)
-                        .arg(status.late_items));
-  calibration_->setText(status.calibration_note.isEmpty() && status.connected
-                            ? tr("running (live: frames the pipeline cannot take are dropped)")
-                            : status.calibration_note);
+  camera_->setFittedText(StateText(status.camera, "frames/s"));
+  accelerometer_->setFittedText(StateText(status.accelerometer, "samples/s"));
+  frames_->setFittedText(tr("%1 received, %2 processed, %3 dropped")
+                             .arg(status.frames_received)
+                             .arg(status.frames_done)
+                             .arg(status.frames_dropped));
+  reports_->setFittedText(
+      tr("%1 samples dropped, %2 late reports (%3 missing), %4 items out of order")
+          .arg(status.accel_dropped)
+          .arg(status.accel_late_reports)
+          .arg(status.accel_missing_reports)
+          .arg(status.late_items));
+  calibration_->setFittedText(
+      status.calibration_note.isEmpty() && status.connected
+          ? tr("running (live: frames the pipeline cannot take are dropped)")
+          : status.calibration_note);
   record_->setEnabled(status.connected || status.recording);
   record_->setChecked(status.recording);
   record_->setText(status.recording ? tr("Stop recording") : tr("Record"));
   folder_->setEnabled(!status.recording);
   if (status.recording) {
     const RecorderProgress& p = status.recorded;
-    recording_->setText(
+    recording_->setFittedText(
         tr("Recording to %1: %2 s, %3 frames, %4 samples written%5")
             .arg(status.recording_dir)
             .arg(p.recorded_s, 0, 'f', 1)

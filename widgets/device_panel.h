@@ -35,6 +35,7 @@ class QPushButton;
 namespace autocal {
 
 class CalibrationFileField;
+class FittedLabel;
 class LiveSession;
 
 class DevicePanel : public QWidget {
@@ -66,16 +67,16 @@ class DevicePanel : public QWidget {
   QPushButton* connect_;
   QPushButton* disconnect_;
   QPlainTextEdit* found_;  // What `autocal devices` prints.
-  QLabel* message_;        // The last error, or what to do without hardware.
-  QLabel* camera_;
-  QLabel* accelerometer_;
-  QLabel* frames_;
-  QLabel* reports_;
-  QLabel* calibration_;
+  FittedLabel* message_;        // The last error, or what to do without hardware.
+  FittedLabel* camera_;
+  FittedLabel* accelerometer_;
+  FittedLabel* frames_;
+  FittedLabel* reports_;
+  FittedLabel* calibration_;
   QDoubleSpinBox* offset_;
   QLineEdit* folder_;
   QPushButton* record_;
-  QLabel* recording_;
+  FittedLabel* recording_;
 };
 
 }  // namespace autocal

@@ -100,6 +100,18 @@ void DevicePanelTest::connectsRecordsAndDisconnects() {
            qPrintable(Text(panel, "accelerometer")));
   QVERIFY2(Text(panel, "calibration").startsWith("running"),
            qPrintable(Text(panel, "calibration")));
+  // Every status line whole at the dock's narrowest: each label as tall as its wrapped text.
+  panel.resize(panel.minimumWidth(), panel.height());
+  for (const char* name :
+       {"message", "camera", "accelerometer", "frames", "reports", "calibration"}) {
+    const QLabel* label = Find<QLabel>(panel, name);
+    QTRY_VERIFY2(label->height() >= label->heightForWidth(label->width()),
+                 qPrintable(QString("%1: %2 px for %3 (%4)")
+                                .arg(name)
+                                .arg(label->height())
+                                .arg(label->heightForWidth(label->width()))
+                                .arg(label->text())));
+  }
 
   // The time offset goes to the session at once.
   Find<QDoubleSpinBox>(panel, "offset")->setValue(0.012);
