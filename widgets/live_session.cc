@@ -1,5 +1,6 @@
 #include "widgets/live_session.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <span>
@@ -73,6 +74,7 @@ bool LiveSession::connectSource(const QString& input, const QString& accel,
     status_ = Status();
     latest_.reset();
     timings_ = BoxTimingLog();
+    accel_history_ = AccelHistory();
     latest_frame_ = LiveFrame();  // The last session's frame is not this one's.
     status_.source = QString::fromStdString(source_->Describe());
     status_.camera.state = DeviceState::kConnecting;
@@ -111,6 +113,26 @@ std::map<std::string, TimingStats> LiveSession::timingStats() const {
 std::shared_ptr<const FrameSnapshot> LiveSession::latestSnapshot() const {
   std::lock_guard lock(mutex_);
   return latest_;
+}
+
+LiveSession::AccelHistory LiveSession::recentAccel() const {
+  std::lock_guard lock(mutex_);
+  return accel_history_;
+}
+
+void LiveSession::KeepForPlot(const AccelSample& sample, bool first_item) {
+  std::lock_guard lock(mutex_);
+  std::vector<AccelSample>& kept = accel_history_.samples;
+  if (kept.empty() && first_item) accel_history_.start_ns = sample.t_ns;
+  kept.push_back(sample);
+  // Trimmed by a tenth of the span at a time, not one sample each time.
+  const auto span_ns = static_cast<int64_t>(kAccelHistorySeconds * 1e9);
+  if (kept.back().t_ns - kept.front().t_ns > span_ns + span_ns / 10) {
+    const auto first_kept = std::find_if(kept.begin(), kept.end(), [&](const AccelSample& s) {
+      return kept.back().t_ns - s.t_ns <= span_ns;
+    });
+    kept.erase(kept.begin(), first_kept);
+  }
 }
 
 LiveSession::LiveFrame LiveSession::latestFrame() {
@@ -304,6 +326,9 @@ void LiveSession::ReadLoop(std::shared_ptr<FrameSource> source,
             LiveFrame frame{received++, item.t_ns, item.image, nullptr, nullptr};
             {
               std::lock_guard lock(mutex_);
+              if (received == 1 && accel_history_.samples.empty()) {
+                accel_history_.start_ns = item.t_ns;  // The plot counts from the first item.
+              }
               if (runtime) {
                 in_pipeline_.push_back(std::move(frame));
                 if (in_pipeline_.size() > kFramesInPipeline) in_pipeline_.pop_front();
@@ -314,13 +339,13 @@ void LiveSession::ReadLoop(std::shared_ptr<FrameSource> source,
             if (runtime) runtime->PushFrame(item.t_ns, item.image);  // Live: never waits.
             break;
           }
-          case SourceItem::Kind::kAccel:
-            if (runtime) {
-              AccelSample sample = item.accel;
-              sample.t_ns += std::llround(accel_offset_s_.load() * 1e9);
-              runtime->PushAccel(std::span(&sample, 1));
-            }
+          case SourceItem::Kind::kAccel: {
+            AccelSample sample = item.accel;
+            sample.t_ns += std::llround(accel_offset_s_.load() * 1e9);
+            KeepForPlot(sample, /*first_item=*/received == 0);
+            if (runtime) runtime->PushAccel(std::span(&sample, 1));
             break;
+          }
           case SourceItem::Kind::kEvent: {
             UpdateDeviceStatus(item.event);
             const QString text = QString::fromStdString(FormatSourceEvent(item.event));

@@ -18,6 +18,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <QObject>
 #include <QString>
@@ -116,6 +117,15 @@ class LiveSession : public QObject {
   // lets the next frameReady() be sent.
   LiveFrame latestFrame();
 
+  // Seconds of accelerometer samples kept for the live plot (a tenth more before trimming).
+  static constexpr double kAccelHistorySeconds = 60.0;
+  struct AccelHistory {
+    std::vector<AccelSample> samples;  // In time order, on the camera's clock (offset added).
+    int64_t start_ns = 0;              // The session's first frame or sample: the plot's zero.
+  };
+  // The accelerometer's last kAccelHistorySeconds; safe from any thread.
+  AccelHistory recentAccel() const;
+
  signals:
   void connected(const QString& description);
   // Nothing usable: the message says what is missing and what was found.
@@ -145,6 +155,9 @@ class LiveSession : public QObject {
   void PublishFrame(LiveFrame frame);
   // Queued to the GUI thread.
   void Post(std::function<void()> call);
+  // Adds a sample to recentAccel()'s (on the reader's thread); the first item of the
+  // session sets the plot's zero.
+  void KeepForPlot(const AccelSample& sample, bool first_item);
 
   std::atomic<double> accel_offset_s_{0.0};
 
@@ -161,6 +174,7 @@ class LiveSession : public QObject {
   std::shared_ptr<SourceBranch> branch_;  // The recording's feed while it runs.
   std::shared_ptr<const FrameSnapshot> latest_;
   BoxTimingLog timings_;
+  AccelHistory accel_history_;
   // Frames pushed to the pipeline and not yet done, by time, to pair with their snapshots.
   std::deque<LiveFrame> in_pipeline_;
   std::shared_ptr<const AttemptOutcome> boards_attempt_;

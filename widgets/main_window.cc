@@ -416,8 +416,13 @@ void MainWindow::createPipelineDocks() {
     log(tr("Live source ended"));
     live_ = false;
     pipeline_->endLive();
-    // The recording comes back where it was; without one the last live frame stays.
-    if (playback_->frameCount() > 0) loader_->request(playback_->frameIndex());
+    // The recording comes back where it was; without one the last live frame and the
+    // live accelerometer stay.
+    if (playback_->frameCount() > 0) {
+      loader_->request(playback_->frameIndex());
+      showRecordingAccel();
+      plot_->setCursorTime(playback_->currentTime());
+    }
   });
   // The live pipeline's newest snapshot goes where the recording's go (the 3-D view).
   connect(session, &LiveSession::statusChanged, this, [this, session] {
@@ -657,8 +662,6 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
   std::vector<int64_t> times(count);
   for (size_t i = 0; i < count; ++i) times[i] = seq.frame_time_ns(i);
   const int64_t start_ns = RecordingStartNs(seq);
-  int64_t end_ns = count > 0 ? times.back() : start_ns;
-  if (!seq.accel().empty()) end_ns = std::max(end_ns, seq.accel().back().t_ns);
   const int64_t span_ns = count > 1 ? times.back() - times.front() : 0;
   const double fps =
       span_ns > 0 ? static_cast<double>(count - 1) * 1e9 / static_cast<double>(span_ns) : 0.0;
@@ -683,7 +686,7 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
   }
   calibration_plots_->setGroundTruth(std::move(truth));
   video_->showMessage(tr("Loading frame \u2026"));
-  plot_->setSamples(seq.accel(), start_ns, static_cast<double>(end_ns - start_ns) * 1e-9);
+  showRecordingAccel();
   {
     const QSignalBlocker blocker(slider_);
     slider_->setRange(0, std::max(0, static_cast<int>(count) - 1));
@@ -852,7 +855,28 @@ void MainWindow::onLiveFrame() {
   video_->setFrame(index, image);
   pipeline_->setLiveFrame(index, image, frame.snapshot, frame.boards_attempt);
   status_position_->setText(tr("live frame %1").arg(index));
+  // The accelerometer's last minute, the newest sample at the right, the cursor on this
+  // frame; no more often than the plot redraws.
+  if (live_plot_clock_.isValid() && live_plot_clock_.elapsed() < kLivePlotIntervalMs) {
+    emit frameShown(index);
+    return;
+  }
+  live_plot_clock_.start();
+  const LiveSession::AccelHistory accel = live_session_->recentAccel();
+  const int64_t end_ns =
+      accel.samples.empty() ? frame.t_ns : std::max(frame.t_ns, accel.samples.back().t_ns);
+  plot_->setSamples(accel.samples, accel.start_ns,
+                    static_cast<double>(end_ns - accel.start_ns) * 1e-9);
+  plot_->setCursorTime(static_cast<double>(frame.t_ns - accel.start_ns) * 1e-9);
   emit frameShown(index);
+}
+
+void MainWindow::showRecordingAccel() {
+  const Sequence& seq = *sequence_;
+  const int64_t start_ns = RecordingStartNs(seq);
+  int64_t end_ns = seq.frame_count() > 0 ? seq.frame_time_ns(seq.frame_count() - 1) : start_ns;
+  if (!seq.accel().empty()) end_ns = std::max(end_ns, seq.accel().back().t_ns);
+  plot_->setSamples(seq.accel(), start_ns, static_cast<double>(end_ns - start_ns) * 1e-9);
 }
 
 void MainWindow::showTiming() {

@@ -138,8 +138,11 @@ class MainWindow : public QMainWindow {
   void onLayersToggled();
   void onViewModeChosen(QAction* action);
   void onPipelineProgress();
-  // The live session's newest frame goes on screen with its overlays.
+  // The live session's newest frame goes on screen with its overlays, and the plot shows
+  // the live accelerometer up to it.
   void onLiveFrame();
+  // The open recording's accelerometer in the plot.
+  void showRecordingAccel();
   // Once a second: the display's frame rate, the pipeline's progress and its timing.
   void onRateTick();
   // The Timing dock: the live pipeline's while live, else the recording's run's.
@@ -198,6 +201,8 @@ class MainWindow : public QMainWindow {
   std::shared_ptr<const FrameSnapshot> last_live_snapshot_;  // Forwarded last.
   // A live source is connected: the video shows its frames, not the recording's.
   bool live_ = false;
+  QElapsedTimer live_plot_clock_;  // Since the plot last took the live accelerometer.
+  static constexpr int kLivePlotIntervalMs = 66;
   QTimer rate_timer_;
   QElapsedTimer rate_clock_;
   uint64_t frames_painted_at_tick_ = 0;

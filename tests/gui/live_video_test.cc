@@ -3,8 +3,10 @@
 // each with the overlays of its own snapshot drawn where its tracks are; side by side adds
 // box 3's image of the live frame; disconnecting leaves the window working, and a recording
 // opened afterwards is shown again.
+#include <algorithm>
 #include <cmath>
 #include <memory>
+#include <vector>
 
 #include <QAction>
 #include <QComboBox>
@@ -19,16 +21,22 @@
 
 #include "devices/sequence.h"
 #include "tests/gui/screenshot.h"
+#include "widgets/accel_plot.h"
 #include "widgets/device_panel.h"
 #include "widgets/image_convert.h"
 #include "widgets/live_session.h"
 #include "widgets/main_window.h"
 #include "widgets/pipeline_controller.h"
+#include "widgets/playback_controller.h"
 #include "widgets/timing_table.h"
 #include "widgets/video_view.h"
 
 namespace autocal {
 namespace {
+
+#if QT_VERSION < QT_VERSION_CHECK(6, 0, 0)
+using QtCharts::QAbstractSeries;
+#endif
 
 // Small frames: the simulator renders them faster than real time on a loaded machine.
 const QString kSimSource = QStringLiteral("sim:office,seconds=30,resolution=320x240");
@@ -166,6 +174,36 @@ void LiveVideoTest::showsLiveFramesWithTheirOverlays() {
   QVERIFY(drawn.save(ScreenshotPath(QStringLiteral("live_video.png"))));
   QVERIFY(window.grab().save(ScreenshotPath(QStringLiteral("workbench_live.png"))));
 
+  // The accelerometer plot follows the live source: each point drawn is one of the source's
+  // samples (the simulator's, same time and value), the newest at the right edge.
+  AccelPlot& plot = *window.accelPlot();
+  QTRY_VERIFY_WITH_TIMEOUT(plot.durationSeconds() > 1.0, kTimeoutMs);
+  {
+    const int64_t start_ns = session.recentAccel().start_ns;
+    const std::vector<AccelSample>& truth = simulated->accel();
+    int checked = 0;
+    for (QAbstractSeries* series : plot.chart()->series()) {
+      const int axis = series->name() == QStringLiteral("a_x")   ? 0
+                       : series->name() == QStringLiteral("a_y") ? 1
+                       : series->name() == QStringLiteral("a_z") ? 2
+                                                                 : -1;
+      if (axis < 0) continue;
+      for (const QPointF& point : static_cast<QLineSeries*>(series)->points()) {
+        const int64_t t_ns = start_ns + std::llround(point.x() * 1e9);
+        const auto at =
+            std::lower_bound(truth.begin(), truth.end(), t_ns,
+                             [](const AccelSample& sample, int64_t t) { return sample.t_ns < t; });
+        QVERIFY(at != truth.end());
+        QVERIFY2(std::abs(at->t_ns - t_ns) < 1000, qPrintable(QString::number(point.x())));
+        QVERIFY(std::abs(at->specific_force[axis] - point.y()) < 1e-9);
+        ++checked;
+      }
+    }
+    qInfo("%d plotted accelerometer points checked against the source", checked);
+    QVERIFY(checked >= 100);
+    QVERIFY(std::abs(plot.visibleEnd() - plot.durationSeconds()) < 1e-9);
+  }
+
   // The Timing dock follows the live pipeline: its frames since connecting, as the session
   // measured them, within the once-a-second refresh.
   const QTableWidget* timing = window.timingTable()->table();
@@ -209,6 +247,12 @@ void LiveVideoTest::showsLiveFramesWithTheirOverlays() {
   QTRY_VERIFY_WITH_TIMEOUT(!window.pipelineController()->current().live && view.frameIndex() >= 0 &&
                                view.image().size() == QSize(320, 240),
                            kTimeoutMs);
+  // The recording's accelerometer again: the plot spans it, from its start to its end.
+  const Sequence& recording = *window.sequence();
+  const int64_t recording_end_ns =
+      std::max(recording.frame_time_ns(recording.frame_count() - 1), recording.accel().back().t_ns);
+  QCOMPARE(plot.durationSeconds(),
+           static_cast<double>(recording_end_ns - RecordingStartNs(recording)) * 1e-9);
 }
 
 }  // namespace autocal
