@@ -44,6 +44,7 @@
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
 #include "widgets/device_panel.h"
+#include "widgets/elided_label.h"
 #include "widgets/frame_loader.h"
 #include "widgets/history_table.h"
 #include "widgets/image_convert.h"
@@ -496,7 +497,7 @@ void MainWindow::onViewModeChosen(QAction* action) {
 }
 
 void MainWindow::createStatusBar() {
-  status_source_ = new QLabel;
+  status_source_ = new ElidedLabel;
   status_resolution_ = new QLabel;
   status_fps_ = new QLabel;
   status_position_ = new QLabel;
@@ -514,7 +515,7 @@ void MainWindow::createStatusBar() {
                                 .arg(QStringLiteral("999.9")));
   FixSize(status_display_, tr("display %1 fps").arg(QStringLiteral("999.9")));
   // The source has the room the rest leaves (what was found is above the video, with the
-  // layers), and its whole text as a tooltip.
+  // layers), elided to it, and its whole text as a tooltip.
   status_source_->setObjectName(QStringLiteral("status_source"));
   status_source_->setMinimumWidth(0);
   statusBar()->addWidget(status_source_, 1);
@@ -855,20 +856,21 @@ void MainWindow::onLiveFrame() {
   video_->setFrame(index, image);
   pipeline_->setLiveFrame(index, image, frame.snapshot, frame.boards_attempt);
   status_position_->setText(tr("live frame %1").arg(index));
-  // The accelerometer's last minute, the newest sample at the right, the cursor on this
-  // frame; no more often than the plot redraws.
-  if (live_plot_clock_.isValid() && live_plot_clock_.elapsed() < kLivePlotIntervalMs) {
-    emit frameShown(index);
-    return;
+  // No more often than the plot redraws.
+  if (!live_plot_clock_.isValid() || live_plot_clock_.elapsed() >= kLivePlotIntervalMs) {
+    live_plot_clock_.start();
+    showLiveAccel(frame.t_ns);
   }
-  live_plot_clock_.start();
+  emit frameShown(index);
+}
+
+void MainWindow::showLiveAccel(int64_t frame_t_ns) {
   const LiveSession::AccelHistory accel = live_session_->recentAccel();
   const int64_t end_ns =
-      accel.samples.empty() ? frame.t_ns : std::max(frame.t_ns, accel.samples.back().t_ns);
+      accel.samples.empty() ? frame_t_ns : std::max(frame_t_ns, accel.samples.back().t_ns);
   plot_->setSamples(accel.samples, accel.start_ns,
                     static_cast<double>(end_ns - accel.start_ns) * 1e-9);
-  plot_->setCursorTime(static_cast<double>(frame.t_ns - accel.start_ns) * 1e-9);
-  emit frameShown(index);
+  plot_->setCursorTime(static_cast<double>(frame_t_ns - accel.start_ns) * 1e-9);
 }
 
 void MainWindow::showRecordingAccel() {

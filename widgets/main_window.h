@@ -31,6 +31,7 @@ namespace autocal {
 class AccelPlot;
 class CalibrationPlots;
 class DevicePanel;
+class ElidedLabel;
 struct CalibrationSeries;
 class FrameLoader;
 class HistoryOpener;
@@ -139,10 +140,13 @@ class MainWindow : public QMainWindow {
   void onViewModeChosen(QAction* action);
   void onPipelineProgress();
   // The live session's newest frame goes on screen with its overlays, and the plot shows
-  // the live accelerometer up to it.
+  // the live accelerometer.
   void onLiveFrame();
   // The open recording's accelerometer in the plot.
   void showRecordingAccel();
+  // The live source's last minute of accelerometer in the plot, the newest sample at the
+  // right, the cursor on the frame shown.
+  void showLiveAccel(int64_t frame_t_ns);
   // Once a second: the display's frame rate, the pipeline's progress and its timing.
   void onRateTick();
   // The Timing dock: the live pipeline's while live, else the recording's run's.
@@ -185,7 +189,7 @@ class MainWindow : public QMainWindow {
   QLabel* position_label_ = nullptr;
   QComboBox* speed_box_ = nullptr;
   QDoubleSpinBox* window_box_ = nullptr;
-  QLabel* status_source_ = nullptr;
+  ElidedLabel* status_source_ = nullptr;
   QLabel* status_resolution_ = nullptr;
   QLabel* status_fps_ = nullptr;
   QLabel* status_position_ = nullptr;

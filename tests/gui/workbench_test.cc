@@ -37,6 +37,7 @@
 #include "devices/session_io.h"
 #include "pipeline/calibration_io.h"
 #include "widgets/accel_plot.h"
+#include "widgets/elided_label.h"
 #include "widgets/frame_loader.h"
 #include "widgets/image_convert.h"
 #include "widgets/main_window.h"
@@ -703,6 +704,16 @@ void WorkbenchTest::statusTextFitsAtDefaultSize() {
   }
   const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
   QVERIFY(window.grab().save(QDir(dir).filePath(QStringLiteral("workbench_default_size.png"))));
+
+  // Narrower, the source's text ends in an ellipsis where it stops, not mid-word.
+  window.resize(1000, window.height());
+  const auto* elided = qobject_cast<const ElidedLabel*>(source);
+  QVERIFY(elided);
+  QTRY_VERIFY(elided->shownText() != elided->text());
+  QVERIFY2(elided->shownText().endsWith(QChar(0x2026)), qPrintable(elided->shownText()));
+  QVERIFY(elided->fontMetrics().horizontalAdvance(elided->shownText()) <=
+          elided->contentsRect().width());
+  QVERIFY(window.grab().save(QDir(dir).filePath(QStringLiteral("workbench_narrow.png"))));
 }
 
 // Issue 6: each box's median and 95th percentile in the workbench, as in the summary. Once
