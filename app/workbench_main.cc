@@ -39,6 +39,11 @@ struct Options {
       QStringLiteral("Pre-mission calibration every pipeline starts from and is judged "
                      "against (any format `autocal` writes; default: the source's own)."),
       QStringLiteral("file")};
+  QCommandLineOption follow{
+      QStringLiteral("follow"),
+      QStringLiteral("Follow the pipeline: show each frame as boxes 1-10 finish it, with its "
+                     "overlays, instead of playing at the recording's pace (how the built-in "
+                     "simulated vest opens).")};
   QCommandLineOption overlays{
       QStringLiteral("overlays"),
       QStringLiteral("Overlay layers to show, comma-separated: lines, snakes, tracks, planes, "
@@ -61,6 +66,7 @@ Options Configure(QCommandLineParser* parser) {
   parser->addOption(options.quit_after);
   parser->addOption(options.history);
   parser->addOption(options.prior);
+  parser->addOption(options.follow);
   parser->addOption(options.overlays);
   parser->addOption(options.view);
   parser->addPositionalArgument(
@@ -196,6 +202,11 @@ int main(int argc, char** argv) {
         });
   }
 
+  // The simulated vest shows what the pipeline finds on every frame from the start; at the
+  // recording's pace a machine without a GPU draws frames the pipeline has not reached yet.
+  if (parser.isSet(options.follow) || positional.isEmpty()) {
+    window.followPipelineAction()->setChecked(true);
+  }
   // Its error is on stderr (the log's path).
   if (parser.isSet(options.prior) && !window.setPremissionFile(parser.value(options.prior))) {
     return 2;

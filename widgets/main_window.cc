@@ -708,7 +708,7 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
   pipeline_->start(nullptr);
   start_pipeline_on_frame_ = true;
   emit opened(source);
-  playback_->play();
+  if (!follow_action_->isChecked()) playback_->play();  // Following, it goes with the run.
 }
 
 void MainWindow::onOpenFailed(const QString& source, const QString& message) {

@@ -1,9 +1,11 @@
 // The simulated Sequence: ground truth and accelerometer computed at construction (cheap),
 // frames rendered on demand.
 #include <cstdio>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <sstream>
+#include <utility>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -66,11 +68,21 @@ class SimulatedSequence : public Sequence {
 
   cv::Mat LoadFrame(size_t index) const override {
     const GroundTruthFrame& truth = Truth(index);
+    {
+      const std::lock_guard lock(recent_mutex_);
+      for (const auto& [recent_index, image] : recent_) {
+        if (recent_index == index) return image.clone();
+      }
+    }
     RenderOptions options;
     options.supersampling = scenario_.image.supersampling;
     options.effects = EffectsAt(scenario_, scenario_.SecondsAt(truth.t_ns));
     options.noise_seed = MixSeed(scenario_.seed, kFrameNoiseStream, index);
-    return renderer().Render(truth.intrinsics, Pose(truth), options).image;
+    cv::Mat image = renderer().Render(truth.intrinsics, Pose(truth), options).image;
+    const std::lock_guard lock(recent_mutex_);
+    recent_.emplace_back(index, image.clone());
+    if (recent_.size() > kRecentFrames) recent_.pop_front();
+    return image;
   }
 
   const std::vector<AccelSample>& accel() const override { return accel_; }
@@ -110,8 +122,15 @@ class SimulatedSequence : public Sequence {
     return pose;
   }
 
+  // The frames rendered last, kept so that a second reader of the same frame (the
+  // workbench's display following its pipeline) does not render it again; copies are
+  // handed out, as callers own what they get. More than the runtime's queues hold.
+  static constexpr size_t kRecentFrames = 12;
+
   Scenario scenario_;
   Trajectory trajectory_;
+  mutable std::mutex recent_mutex_;
+  mutable std::deque<std::pair<size_t, cv::Mat>> recent_;
   mutable std::once_flag renderer_once_;
   mutable std::unique_ptr<Renderer> renderer_;
   SessionInfo session_;

@@ -558,6 +558,17 @@ void OverlayTest::redrawRateWhilePipelineRuns() {
   window->followPipelineAction()->setChecked(true);
   QVERIFY(!playback.isPlaying());
   QTRY_COMPARE_WITH_TIMEOUT(view.frameIndex(), pipeline.frameCount() - 1, kFrameTimeoutMs);
+
+  // A recording opened while following is followed too, not played at its pace: its frames
+  // go by as the pipeline does them, to its last.
+  QSignalSpy opened(window.get(), &MainWindow::opened);
+  window->open(QStringLiteral("sim:office,seconds=2,resolution=160x120"));
+  QVERIFY(opened.wait(kPipelineTimeoutMs));
+  QVERIFY(window->followPipelineAction()->isChecked());
+  QVERIFY(!playback.isPlaying());
+  QTRY_COMPARE_WITH_TIMEOUT(pipeline.frameCount(), 60, kFrameTimeoutMs);
+  QTRY_COMPARE_WITH_TIMEOUT(view.frameIndex(), 59, kPipelineTimeoutMs);
+  QVERIFY(!playback.isPlaying());
 }
 
 }  // namespace autocal
