@@ -272,6 +272,7 @@ void DevicePanel::showStatus() {
   disconnect_->setEnabled(busy);
   input_->setEnabled(!busy);
   accel_->setEnabled(!busy);
+  premission_->setEnabled(!busy);  // Read when connecting: a change would not apply.
   camera_->setFittedText(StateText(status.camera, "frames/s"));
   accelerometer_->setFittedText(StateText(status.accelerometer, "samples/s"));
   frames_->setFittedText(tr("%1 received, %2 processed, %3 dropped")
