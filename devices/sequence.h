@@ -51,6 +51,10 @@ struct ReadOptions {
   // expected. true: everything up to the first fault is kept, the fault is reported in
   // warnings(), and frames after the last good accelerometer sample (or vice versa) stay.
   bool truncate_at_fault = false;
+  // The source's own accelerometer is not read (`--accel none`): a video then needs no CSV
+  // beside it, and without a timestamps file its frames count from 0 at the container's
+  // frame rate.
+  bool without_accel = false;
 };
 
 // A finite, random-access sequence of frames plus its accelerometer stream.

@@ -680,8 +680,10 @@ std::unique_ptr<FrameSource> OpenSource(const std::string& input, const std::str
   std::unique_ptr<Sequence> sequence;
   std::error_code ignored;
   const bool folder = fs::is_directory(input, ignored);
+  ReadOptions read_options;
+  read_options.without_accel = accel_spec.kind == AccelSpec::Kind::kNone;
   try {
-    sequence = OpenSequence(input);
+    sequence = OpenSequence(input, read_options);
   } catch (const Error&) {
     // A folder of nothing but images is read as one; anything else keeps its error.
     if (!folder || LooksLikeRecording(input)) throw;

@@ -122,6 +122,26 @@ TEST(SourcesTest, VideoWithCsvStreamsWhatLoadFrameDecodes) {
   EXPECT_EQ(streamed.frames.size(), 20u);
 }
 
+// A video without its accelerometer CSV, read with --accel none: its frames alone, timed
+// from 0 at the container's rate.
+TEST(SourcesTest, VideoAloneWithAccelNone) {
+  test::TempDir dir;
+  {
+    cv::VideoWriter writer(dir / "walk.avi", cv::CAP_OPENCV_MJPEG,
+                           cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25.0, cv::Size(64, 48));
+    ASSERT_TRUE(writer.isOpened());
+    for (int i = 0; i < 10; ++i) writer.write(cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(20 * i)));
+  }
+  EXPECT_THROW(OpenSource(dir / "walk.avi"), Error);  // Its own accelerometer is missing.
+  const Streamed streamed = StreamAll(*OpenSource(dir / "walk.avi", "none"));
+  ASSERT_EQ(streamed.frames.size(), 10u);
+  EXPECT_TRUE(streamed.accel.empty());
+  for (size_t i = 0; i < streamed.frames.size(); ++i) {
+    EXPECT_EQ(streamed.frames[i].t_ns, static_cast<int64_t>(i) * 40'000'000);
+    EXPECT_NEAR(cv::mean(streamed.frames[i].image)[0], 20.0 * double(i), 2.0);
+  }
+}
+
 TEST(SourcesTest, StopEndsARecordedStream) {
   const std::unique_ptr<FrameSource> source = OpenSource(kSmallSim);
   source->Start();
