@@ -67,8 +67,8 @@ class PipelineController : public QObject {
   // Stops the run and waits for its threads (at most the frame and the solve under way).
   ~PipelineController() override;
 
-  // Stops the run under way and starts one over `sequence` (none: stops), from
-  // premission(), else the sequence's own pre-mission calibration. Without either, or with
+  // Stops the run under way and starts one over `sequence` (none: stops), from the
+  // calibration setPremission gave, else the sequence's own pre-mission calibration. Without either, or with
   // one for another image size, it cannot be run: failed() says so.
   void start(std::shared_ptr<const Sequence> sequence);
   // The calibration runs start from, given by hand (none: each recording's own); applies
@@ -76,7 +76,6 @@ class PipelineController : public QObject {
   void setPremission(std::optional<CameraIntrinsics> premission) {
     premission_ = std::move(premission);
   }
-  const std::optional<CameraIntrinsics>& premission() const { return premission_; }
   // Stops the run under way; what it found stays.
   void stop();
   // The options runs start with (PipelineOptions' defaults until set).
