@@ -111,6 +111,18 @@ TEST(ImageQuality, AgreesWithOpenCvFilters) {
   }
 }
 
+// Whether one of the scenario's disturbances (fog, a noise burst) is on at `t_ns`.
+bool Disturbed(const Scenario& scenario, int64_t t_ns) {
+  const double t = scenario.SecondsAt(t_ns);
+  for (const Disturbance& disturbance : scenario.disturbances) {
+    if (t >= disturbance.start.Seconds(scenario.seconds) &&
+        t < disturbance.end.Seconds(scenario.seconds)) {
+      return true;
+    }
+  }
+  return false;
+}
+
 // The simulator's transient walk: fog over 8-11 s, a noise burst over 11-12 s. Every
 // frame in them is found degraded, and no frame outside them. At 640x480 the fog's blur
 // moves the blur measure less than at 320x240 (0.05 against 0.09 on its first frame).
@@ -122,18 +134,13 @@ void ExpectFindsTheBurst(const std::string& lens, const std::string& resolution)
   int in_burst = 0, caught = 0, outside = 0, false_alarms = 0;
   for (size_t i = 0; i < sequence->frame_count(); ++i) {
     const int64_t t_ns = sequence->frame_time_ns(i);
-    const double t = scenario.SecondsAt(t_ns);
-    bool disturbed = false;
-    for (const Disturbance& disturbance : scenario.disturbances) {
-      disturbed |= t >= disturbance.start.Seconds(scenario.seconds) &&
-                   t < disturbance.end.Seconds(scenario.seconds);
-    }
+    const bool disturbed = Disturbed(scenario, t_ns);
     const ImageQuality quality = MeasureImageQuality(sequence->LoadFrame(i));
     const std::optional<std::string> degraded = gate.Judge(t_ns, quality);
     if (i % 15 == 0 || bool(degraded) != disturbed) {
-      std::printf("%5.2f s noise %5.2f blur %.3f contrast %5.1f %s%s\n", t, quality.noise_grey,
-                  quality.blur, quality.contrast_grey, disturbed ? "[burst] " : "",
-                  degraded ? degraded->c_str() : "");
+      std::printf("%5.2f s noise %5.2f blur %.3f contrast %5.1f %s%s\n", scenario.SecondsAt(t_ns),
+                  quality.noise_grey, quality.blur, quality.contrast_grey,
+                  disturbed ? "[burst] " : "", degraded ? degraded->c_str() : "");
     }
     (disturbed ? in_burst : outside) += 1;
     if (disturbed && degraded) ++caught;
@@ -170,12 +177,7 @@ Marked JudgeCompressed(const std::string& spec) {
   cv::Mat frame;
   for (size_t i = 0; i < sequence->frame_count() && capture.read(frame); ++i) {
     const int64_t t_ns = sequence->frame_time_ns(i);
-    const double t = scenario.SecondsAt(t_ns);
-    bool disturbed = false;
-    for (const Disturbance& disturbance : scenario.disturbances) {
-      disturbed |= t >= disturbance.start.Seconds(scenario.seconds) &&
-                   t < disturbance.end.Seconds(scenario.seconds);
-    }
+    const bool disturbed = Disturbed(scenario, t_ns);
     const bool degraded = gate.Judge(t_ns, MeasureImageQuality(frame)).has_value();
     ++marked.frames;
     marked.degraded += degraded;
