@@ -297,38 +297,57 @@ std::vector<std::vector<int>> PlaneTracker::Assign(const Frame& frame) {
   for (size_t s = 0; s < states_.size(); ++s) {
     for (const auto& [id, point] : states_[s].members) owner[frame.index.at(id)] = int(s);
   }
-  std::vector<std::vector<int>> joiners(states_.size());
+  struct Fit {
+    bool judged = false;
+    double best = kInfinity, second = kInfinity, own = kInfinity;
+    int chosen = -1;
+    bool other_fits = false;  // A member that another plane fits as well as its own.
+  };
+  std::vector<Fit> fits(frame.tracks->size());
+  std::vector<int> members(states_.size(), 0), ambiguous(states_.size(), 0);
   for (size_t i = 0; i < frame.tracks->size(); ++i) {
     if (!frame.has_base[i] && frame.start_t_ns[i] < 0) continue;
-    double best = kInfinity, second = kInfinity;
-    int chosen = -1;
-    double own = kInfinity;
+    Fit& fit = fits[i];
+    fit.judged = true;
     for (size_t s = 0; s < states_.size(); ++s) {
       const double error = Error(states_[s], frame, int(i)) / states_[s].scale;
-      if (int(s) == owner[i]) own = error;
-      if (error < best) {
-        second = best;
-        best = error;
-        chosen = int(s);
+      if (int(s) == owner[i]) fit.own = error;
+      if (error < fit.best) {
+        fit.second = fit.best;
+        fit.best = error;
+        fit.chosen = int(s);
       } else {
-        second = std::min(second, error);
+        fit.second = std::min(fit.second, error);
       }
     }
-    // Points near where two planes meet, or where parallax is too small to tell planes
-    // apart, fit more than one: they belong to none.
     if (owner[i] >= 0) {
-      const bool other_fits = chosen != owner[i] ? best <= options_.inlier_threshold_px
-                                                 : second <= options_.inlier_threshold_px;
-      if (own > options_.eject_threshold_px || other_fits ||
+      fit.other_fits = fit.chosen != owner[i] ? fit.best <= options_.inlier_threshold_px
+                                              : fit.second <= options_.inlier_threshold_px;
+      ++members[owner[i]];
+      ambiguous[owner[i]] += fit.other_fits;
+    }
+  }
+  std::vector<std::vector<int>> joiners(states_.size());
+  for (size_t i = 0; i < frame.tracks->size(); ++i) {
+    const Fit& fit = fits[i];
+    if (!fit.judged) continue;
+    if (owner[i] >= 0) {
+      // Points near where two planes meet, or where parallax is too small to tell planes
+      // apart, fit more than one: they leave. But when another plane fits most of the
+      // members as well, the frame tells nothing (the camera only turned, and the
+      // rotation's homography fits every plane): memberships stay as they were.
+      const bool told_apart = 2 * ambiguous[owner[i]] <= members[owner[i]];
+      if (fit.own > options_.eject_threshold_px || (fit.other_fits && told_apart) ||
           frame.LongError(states_[owner[i]].longer, int(i)) / states_[owner[i]].scale >
               kLongScale * options_.eject_threshold_px) {
         states_[owner[i]].members.erase((*frame.tracks)[i].id);
       }
-    } else if (chosen >= 0 && best <= options_.inlier_threshold_px &&
-               second > options_.eject_threshold_px && Near(states_[chosen], frame, int(i)) &&
-               frame.LongError(states_[chosen].longer, int(i)) / states_[chosen].scale <=
+    } else if (fit.chosen >= 0 && fit.best <= options_.inlier_threshold_px &&
+               fit.second > options_.eject_threshold_px &&
+               Near(states_[fit.chosen], frame, int(i)) &&
+               frame.LongError(states_[fit.chosen].longer, int(i)) / states_[fit.chosen].scale <=
                    kLongScale * options_.inlier_threshold_px) {
-      joiners[chosen].push_back(int(i));
+      joiners[fit.chosen].push_back(int(i));
     }
   }
   return joiners;
@@ -384,11 +403,15 @@ void PlaneTracker::Merge(const Frame& frame) {
           }
         }
         std::vector<uchar> mask;
-        merge = FitHomographyRansac(
-                    base, now,
-                    std::max(states_[a].scale, states_[b].scale) * options_.eject_threshold_px,
-                    options_.ransac_iterations, kRansacConfidence, &mask) &&
-                std::count(mask.begin(), mask.end(), 1) >= options_.merge_fraction * mask.size();
+        const std::optional<cv::Matx33d> both = FitHomographyRansac(
+            base, now, std::max(states_[a].scale, states_[b].scale) * options_.eject_threshold_px,
+            options_.ransac_iterations, kRansacConfidence, &mask);
+        // Without parallax one homography fits any two planes (the rotation's): only a
+        // translation can show them to be one.
+        merge = both &&
+                std::count(mask.begin(), mask.end(), 1) >= options_.merge_fraction * mask.size() &&
+                Parallax(DecomposePlaneHomography(*both, *frame.camera, base, now),
+                         *frame.camera) >= options_.min_parallax_px;
       }
       if (!merge) {
         ++b;
