@@ -512,8 +512,9 @@ std::vector<OptionField> MakeFields() {
                     "this (px) is dropped for a cold one",
                     &P::calibration, &C::warm_start_max_median_px),
       Field<double>("calibration.max_point_rms_ratio", 0, 1000,
-                    "a point reprojecting this many times worse than the median point is left "
-                    "out and the solve goes on (0: none)",
+                    "a point reprojecting this many times worse than the median point, or a "
+                    "line this many times less straight than the median line, is left out and "
+                    "the solve goes on (0: none)",
                     &P::calibration, &C::max_point_rms_ratio),
       Field<double>("calibration.function_tolerance", 1e-12, 0.1,
                     "converged when an iteration lowers the cost by less than this fraction",

@@ -46,6 +46,11 @@ constexpr int kNewtonSteps = 10;
 // Scale of the robust loss while far from the answer, px.
 constexpr double kCoarseLossPx = 5.0;
 
+// The least median straightness a line is judged against, px: below it a snake's shape is
+// as straight as its edge localization allows, and a pool of such lines would otherwise
+// call good lines curved on their noise.
+constexpr double kLineNoiseFloorPx = 0.05;
+
 std::vector<Eigen::Vector2d> Undistorted(const LineObservation& line, const CameraIntrinsics& c) {
   std::vector<Eigen::Vector2d> points;
   const auto dist = c.Distortion();
@@ -283,10 +288,24 @@ size_t PlumbLineParameterCount(const std::vector<const LineObservation*>& lines)
   return 2 * lines.size();
 }
 
-void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
-                           const CameraIntrinsics& start, double loss_px, double* intrinsics,
-                           ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering,
-                           ParameterArena* arena) {
+std::vector<bool> StraightLines(const std::vector<const LineObservation*>& lines,
+                                const CameraIntrinsics& camera, double factor) {
+  std::vector<bool> straight(lines.size(), true);
+  if (lines.empty()) return straight;
+  const std::vector<double> rms = PerLineRms(lines, camera);
+  std::vector<double> sorted = rms;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double limit = factor * std::max(sorted[sorted.size() / 2], kLineNoiseFloorPx);
+  for (size_t i = 0; i < lines.size(); ++i) straight[i] = rms[i] <= limit;
+  return straight;
+}
+
+std::vector<double*> AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
+                                           const CameraIntrinsics& start, double loss_px,
+                                           double* intrinsics, ceres::Problem* problem,
+                                           ceres::ParameterBlockOrdering* ordering,
+                                           ParameterArena* arena) {
+  std::vector<double*> blocks;
   for (const LineObservation* observed : lines) {
     const std::vector<Eigen::Vector2d> ideal = Undistorted(*observed, start);
     const LineFit fit = FitLine(ideal);
@@ -297,7 +316,9 @@ void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
                                 new ceres::CauchyLoss(loss_px), intrinsics, line);
     }
     ordering->AddElementToGroup(line, 0);
+    blocks.push_back(line);
   }
+  return blocks;
 }
 
 PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observations,
@@ -336,13 +357,10 @@ PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observati
   if (solve.converged) {
     const CameraIntrinsics coarse =
         CameraIntrinsics::FromPacked(solve.intrinsics, initial.width, initial.height);
-    std::vector<double> rms = PerLineRms(lines, coarse);
-    std::vector<double> sorted = rms;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    const double limit = options.outlier_factor * std::max(sorted[sorted.size() / 2], 0.05);
+    const std::vector<bool> straight = StraightLines(lines, coarse, options.outlier_factor);
     std::vector<const LineObservation*> inliers;
     for (size_t i = 0; i < lines.size(); ++i) {
-      if (rms[i] <= limit) inliers.push_back(lines[i]);
+      if (straight[i]) inliers.push_back(lines[i]);
     }
     if (int(inliers.size()) >= options.min_lines) {
       result.lines_rejected = static_cast<int>(lines.size() - inliers.size());

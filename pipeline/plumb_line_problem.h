@@ -61,16 +61,24 @@ class ParameterArena {
   std::vector<double> values_;
 };
 
+// Which of `lines` are straight under `camera`: those whose undistorted points lie within
+// `factor` times the median line's RMS distance of their own best straight line. The rest
+// are curved in the world (a kerb, a roofline turning a corner, the horizon over a
+// ground's corner) or mistracked, and would bend the distortion toward their shape.
+std::vector<bool> StraightLines(const std::vector<const LineObservation*>& lines,
+                                const CameraIntrinsics& camera, double factor);
+
 // The values AddPlumbLineResiduals takes from the arena for `lines`.
 size_t PlumbLineParameterCount(const std::vector<const LineObservation*>& lines);
 
 // Adds one residual per point of every line, on `intrinsics` (packed, owned by the
 // caller), with the lines taken from `arena` and initialized from `start`. The lines go in
-// elimination group 0 of `ordering`.
-void AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
-                           const CameraIntrinsics& start, double loss_px, double* intrinsics,
-                           ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering,
-                           ParameterArena* arena);
+// elimination group 0 of `ordering`. Returns each line's parameter block, in order.
+std::vector<double*> AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
+                                           const CameraIntrinsics& start, double loss_px,
+                                           double* intrinsics, ceres::Problem* problem,
+                                           ceres::ParameterBlockOrdering* ordering,
+                                           ParameterArena* arena);
 
 // The covariance of `intrinsics` at the solution, in its tangent space (the free
 // parameters, in order), for unit residual variance: the Gauss-Newton Hessian J^T J with

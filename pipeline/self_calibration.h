@@ -104,7 +104,9 @@ struct SelfCalibrationOptions {
   // They are mostly tracks held by the wrong plane (ceiling tracks by a wall's plane, by
   // the corner where the two meet) and tracks whose patch the walk deformed: 2-8% of the
   // points on the 320x240 walks. With them the attempts' fx scattered by 0.5-0.9% (RMS
-  // against the truth), without them by 0.35-0.55% (docs/calibration.md).
+  // against the truth), without them by 0.35-0.55% (docs/calibration.md). Straight lines
+  // likewise, by their RMS distance from straight against the median line's
+  // (StraightLines): world lines that are not quite straight.
   double max_point_rms_ratio = 3.0;
 
   bool Check(std::string* error) const;

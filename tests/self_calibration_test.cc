@@ -438,6 +438,55 @@ TEST(SelfCalibration, PointsOffTheirPlaneAreLeftOut) {
   EXPECT_LT(trimmed.rms_px, 0.3) << "0.2 px noise";
 }
 
+// A world line that is not quite straight (the horizon over a corner of the ground, a
+// roofline turning a corner: two straight pieces meeting at a slight angle) would bend
+// the distortion toward its shape. Such shapes, left out, no longer do.
+TEST(SelfCalibration, LinesCurvedInTheWorldAreLeftOut) {
+  cv::RNG rng(11);
+  const Room room = MakeRoom(rng);
+  const CameraIntrinsics truth = test::SonnarLikeCamera();
+  const std::vector<Eigen::Isometry3d> poses = Walk(LookingAbout, 40);
+  CalibrationMaterial material = Observe(room, poses, truth, 0.2, rng);
+  const size_t straight_lines = material.lines.size();
+  // Along the top of the far wall, 3 cm lower in its middle (2-3 px from straight), seen
+  // in every eighth view: a few shapes among many, as the outdoor walk's horizon.
+  const Eigen::Vector3d a(6, -3, 2.8), kink(6, 0, 2.77), b(6, 3, 2.8);
+  for (size_t f = 0; f < poses.size(); f += 8) {
+    LineObservation line;
+    for (double s = 0; s <= 1.0; s += 0.02) {
+      const Eigen::Vector3d world =
+          s < 0.5 ? a + 2 * s * (kink - a) : kink + (2 * s - 1) * (b - kink);
+      const Eigen::Vector3d cam = poses[f] * world;
+      if (cam.z() < 0.3) continue;
+      const Eigen::Vector2d pixel = Project(truth, cam);
+      if (pixel.x() < 2 || pixel.y() < 2 || pixel.x() > truth.width - 3 ||
+          pixel.y() > truth.height - 3)
+        continue;
+      line.points.push_back(pixel + Eigen::Vector2d(rng.gaussian(0.1), rng.gaussian(0.1)));
+    }
+    if (line.points.size() >= 8) material.lines.push_back(line);
+  }
+  const int kinked = int(material.lines.size() - straight_lines);
+  SelfCalibrationOptions keep_all;
+  keep_all.max_point_rms_ratio = 0.0;
+  const SelfCalibrationResult kept = SelfCalibrate(material, truth, keep_all);
+  const SelfCalibrationResult trimmed = SelfCalibrate(material, truth, {});
+  ASSERT_TRUE(kept.usable) << kept.reason;
+  ASSERT_TRUE(trimmed.usable) << trimmed.reason;
+  const double kept_error = MaxDistortionDifference(kept.estimate, truth, 0.9);
+  const double trimmed_error = MaxDistortionDifference(trimmed.estimate, truth, 0.9);
+  std::printf(
+      "%d kinked lines among %zu; lens model off by %.3f px with every line (fx %+.3f%%), "
+      "%.3f px without the curved ones (fx %+.3f%%, %d lines used)\n",
+      kinked, material.lines.size(), kept_error, 100 * (kept.estimate.fx / truth.fx - 1),
+      trimmed_error, 100 * (trimmed.estimate.fx / truth.fx - 1), trimmed.lines_used);
+  EXPECT_LE(trimmed.lines_used, int(material.lines.size()) - kinked / 2)
+      << "most kinked lines are left out";
+  EXPECT_GE(trimmed.lines_used, int(straight_lines) - 2) << "few straight lines are";
+  EXPECT_GT(kept_error, 4 * trimmed_error) << "the kinked lines did bend the lens model";
+  EXPECT_LT(trimmed_error, 0.5) << "px, out to 90% of the half-diagonal";
+}
+
 // The prior's residuals are in sigmas, the tracks' in pixels: weighing the prior against
 // tracks half as noisy is the same as sigmas twice as large, and it then holds less.
 TEST(SelfCalibration, PriorIsWeighedAgainstTheTracksNoise) {
