@@ -73,25 +73,42 @@ Room MakeRoom(cv::RNG& rng) {
   return room;
 }
 
+// Whether a point (camera frame) is imaged inside the picture, and where.
+bool Visible(const CameraIntrinsics& lens, const Eigen::Vector3d& cam, Eigen::Vector2d* pixel) {
+  if (cam.z() < 0.3) return false;
+  *pixel = Project(lens, cam);
+  return pixel->x() > 2 && pixel->y() > 2 && pixel->x() < lens.width - 3 &&
+         pixel->y() < lens.height - 3;
+}
+
+// A snake shape along the world curve `at(s)`, s in [0, 1], as seen from `pose`: the
+// visible part, every 2% of the curve, with 0.1 px of noise.
+LineObservation SnakeShape(const std::function<Eigen::Vector3d(double)>& at,
+                           const Eigen::Isometry3d& pose, const CameraIntrinsics& lens,
+                           cv::RNG& rng) {
+  LineObservation line;
+  for (double s = 0; s <= 1.0; s += 0.02) {
+    Eigen::Vector2d pixel;
+    if (Visible(lens, pose * at(s), &pixel)) {
+      line.points.push_back(pixel + Eigen::Vector2d(rng.gaussian(0.1), rng.gaussian(0.1)));
+    }
+  }
+  return line;
+}
+
 // What the pipeline's boxes 6 and 9 would hand over: the real tracks of each plane in
 // every frame (with pixel noise), snake shapes along the edges, gravity at rest.
 CalibrationMaterial Observe(const Room& room, const std::vector<Eigen::Isometry3d>& poses,
                             const CameraIntrinsics& lens, double noise_px, cv::RNG& rng) {
   CalibrationMaterial material;
   material.frame_count = int(poses.size());
-  auto visible = [&](const Eigen::Vector3d& cam, Eigen::Vector2d* pixel) {
-    if (cam.z() < 0.3) return false;
-    *pixel = Project(lens, cam);
-    return pixel->x() > 2 && pixel->y() > 2 && pixel->x() < lens.width - 3 &&
-           pixel->y() < lens.height - 3;
-  };
   for (size_t p = 0; p < room.planes.size(); ++p) {
     PlaneTrack track;
     track.id = int(p) + 1;
     for (size_t f = 0; f < poses.size(); ++f) {
       for (size_t j = 0; j < room.planes[p].size(); ++j) {
         Eigen::Vector2d pixel;
-        if (!visible(poses[f] * room.planes[p][j], &pixel)) continue;
+        if (!Visible(lens, poses[f] * room.planes[p][j], &pixel)) continue;
         pixel += Eigen::Vector2d(rng.gaussian(noise_px), rng.gaussian(noise_px));
         track.observations.push_back({int(f), int(j), pixel});
       }
@@ -100,13 +117,8 @@ CalibrationMaterial Observe(const Room& room, const std::vector<Eigen::Isometry3
   }
   for (size_t f = 0; f < poses.size(); f += 4) {
     for (const auto& [a, b] : room.edges) {
-      LineObservation line;
-      for (double s = 0; s <= 1.0; s += 0.02) {
-        Eigen::Vector2d pixel;
-        if (visible(poses[f] * (a + s * (b - a)), &pixel)) {
-          line.points.push_back(pixel + Eigen::Vector2d(rng.gaussian(0.1), rng.gaussian(0.1)));
-        }
-      }
+      const LineObservation line = SnakeShape(
+          [&](double s) -> Eigen::Vector3d { return a + s * (b - a); }, poses[f], lens, rng);
       if (line.points.size() >= 8) material.lines.push_back(line);
     }
     material.gravity.push_back({int(f), poses[f].rotation() * -Eigen::Vector3d::UnitZ(), 0.5});
@@ -451,19 +463,11 @@ TEST(SelfCalibration, LinesCurvedInTheWorldAreLeftOut) {
   // Along the top of the far wall, 3 cm lower in its middle (2-3 px from straight), seen
   // in every eighth view: a few shapes among many, as the outdoor walk's horizon.
   const Eigen::Vector3d a(6, -3, 2.8), kink(6, 0, 2.77), b(6, 3, 2.8);
+  const auto sagging = [&](double s) -> Eigen::Vector3d {
+    return s < 0.5 ? a + 2 * s * (kink - a) : kink + (2 * s - 1) * (b - kink);
+  };
   for (size_t f = 0; f < poses.size(); f += 8) {
-    LineObservation line;
-    for (double s = 0; s <= 1.0; s += 0.02) {
-      const Eigen::Vector3d world =
-          s < 0.5 ? a + 2 * s * (kink - a) : kink + (2 * s - 1) * (b - kink);
-      const Eigen::Vector3d cam = poses[f] * world;
-      if (cam.z() < 0.3) continue;
-      const Eigen::Vector2d pixel = Project(truth, cam);
-      if (pixel.x() < 2 || pixel.y() < 2 || pixel.x() > truth.width - 3 ||
-          pixel.y() > truth.height - 3)
-        continue;
-      line.points.push_back(pixel + Eigen::Vector2d(rng.gaussian(0.1), rng.gaussian(0.1)));
-    }
+    const LineObservation line = SnakeShape(sagging, poses[f], truth, rng);
     if (line.points.size() >= 8) material.lines.push_back(line);
   }
   const int kinked = int(material.lines.size() - straight_lines);
