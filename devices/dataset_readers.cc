@@ -350,15 +350,16 @@ std::unique_ptr<Sequence> OpenVideo(const std::string& path_name, const ReadOpti
   const std::string base = path.stem().string();
 
   std::error_code ignored;
-  fs::path accel_csv;
-  if (!options.without_accel) {
+  fs::path accel_csv = options.accel_csv;
+  if (accel_csv.empty() && !options.without_accel) {
     accel_csv = dir / (base + ".csv");
     if (!fs::is_regular_file(accel_csv, ignored)) accel_csv = dir / "accel.csv";
     if (!fs::is_regular_file(accel_csv, ignored)) {
       throw Error(path_name, 0,
                   "no accelerometer CSV beside the video: looked for " +
                       (dir / (base + ".csv")).string() + " and " + accel_csv.string() +
-                      " (--accel none reads the video alone)");
+                      " (--accel FILE.csv reads one kept elsewhere, --accel none the video "
+                      "alone)");
     }
   }
 
@@ -372,15 +373,14 @@ std::unique_ptr<Sequence> OpenVideo(const std::string& path_name, const ReadOpti
 
   SessionInfo session;
   session.camera_device = "video file " + path.filename().string();
-  session.accelerometer_device =
-      options.without_accel ? "" : "CSV " + accel_csv.filename().string();
+  session.accelerometer_device = accel_csv.empty() ? "" : "CSV " + accel_csv.filename().string();
   session.width = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH));
   session.height = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_HEIGHT));
   session.frame_rate_hz = capture.get(cv::CAP_PROP_FPS);
 
   std::vector<std::string> warnings;
   std::vector<AccelSample> accel;
-  if (!options.without_accel) accel = ReadAccelCsv(accel_csv, options, &warnings);
+  if (!accel_csv.empty()) accel = ReadAccelCsv(accel_csv, options, &warnings);
   session.accel_rate_hz = MedianRateHz(AccelTimes(accel));
 
   std::vector<int64_t> frame_times_ns;
@@ -408,7 +408,7 @@ std::unique_ptr<Sequence> OpenVideo(const std::string& path_name, const ReadOpti
           path_name, 0,
           "the container states no frame rate: give the frame times in " + times_csv.string());
     }
-    if (accel.empty() && !options.without_accel) {
+    if (accel.empty() && !accel_csv.empty()) {
       throw Error(accel_csv.string(), 0,
                   "has no samples to start the frame times from: give the frame times in " +
                       times_csv.string());

@@ -55,6 +55,10 @@ struct ReadOptions {
   // beside it, and without a timestamps file its frames count from 0 at the container's
   // frame rate.
   bool without_accel = false;
+  // An accelerometer CSV read instead of the source's own (`--accel FILE.csv`). A video
+  // then needs none beside it, and without a timestamps file its frames count from this
+  // CSV's first sample, as they would from the CSV beside it.
+  std::string accel_csv;
 };
 
 // A finite, random-access sequence of frames plus its accelerometer stream.

@@ -682,6 +682,10 @@ std::unique_ptr<FrameSource> OpenSource(const std::string& input, const std::str
   const bool folder = fs::is_directory(input, ignored);
   ReadOptions read_options;
   read_options.without_accel = accel_spec.kind == AccelSpec::Kind::kNone;
+  // A video takes the CSV as its own: its frames may be timed from it.
+  const bool video = fs::is_regular_file(input, ignored);
+  if (video && accel_spec.kind == AccelSpec::Kind::kCsv)
+    read_options.accel_csv = accel_spec.csv_path;
   try {
     sequence = OpenSequence(input, read_options);
   } catch (const Error&) {
@@ -689,7 +693,7 @@ std::unique_ptr<FrameSource> OpenSource(const std::string& input, const std::str
     if (!folder || LooksLikeRecording(input)) throw;
     sequence = OpenImageFolder(input);
   }
-  if (accel_spec.kind == AccelSpec::Kind::kCsv) {
+  if (accel_spec.kind == AccelSpec::Kind::kCsv && !video) {
     std::vector<std::string> warnings;
     std::vector<AccelSample> samples = ReadAccelCsv(accel_spec.csv_path, {}, &warnings);
     sequence = std::make_unique<AccelOverrideSequence>(std::move(sequence), std::move(samples),

@@ -142,6 +142,37 @@ TEST(SourcesTest, VideoAloneWithAccelNone) {
   }
 }
 
+// A video with an accelerometer logged apart (`--accel FILE.csv`): the given CSV is read
+// as the video's own, beside it or not, and the frames are timed from its first sample.
+TEST(SourcesTest, VideoWithAnAccelerometerCsvGivenApart) {
+  test::TempDir dir;
+  {
+    cv::VideoWriter writer(dir / "walk.avi", cv::CAP_OPENCV_MJPEG,
+                           cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25.0, cv::Size(64, 48));
+    ASSERT_TRUE(writer.isOpened());
+    for (int i = 0; i < 10; ++i) writer.write(cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(20 * i)));
+  }
+  const int64_t first_ns = 1'700'000'000'000'000'000;
+  std::string logged = "#timestamp [ns],a_x [m s^-2],a_y [m s^-2],a_z [m s^-2]\n";
+  for (int k = 0; k < 100; ++k) logged += std::to_string(first_ns + k * 5'000'000) + ",0,1,9.8\n";
+  fs::create_directories(dir / "imu");
+  test::WriteTextFile(dir / "imu/log.csv", logged);
+  const auto expect_logged = [&](const Streamed& streamed) {
+    ASSERT_EQ(streamed.frames.size(), 10u);
+    for (size_t i = 0; i < streamed.frames.size(); ++i) {
+      EXPECT_EQ(streamed.frames[i].t_ns, first_ns + static_cast<int64_t>(i) * 40'000'000);
+    }
+    ASSERT_FALSE(streamed.accel.empty());
+    EXPECT_EQ(streamed.accel.front().t_ns, first_ns);
+    for (const AccelSample& sample : streamed.accel) EXPECT_EQ(sample.specific_force.y(), 1.0);
+  };
+  expect_logged(StreamAll(*OpenSource(dir / "walk.avi", dir / "imu/log.csv")));
+  // A CSV beside the video, on another clock, is not the one read.
+  test::WriteTextFile(dir / "walk.csv",
+                      "#timestamp [ns],a_x,a_y,a_z\n0,0,0,9.8\n5000000,0,0,9.8\n");
+  expect_logged(StreamAll(*OpenSource(dir / "walk.avi", dir / "imu/log.csv")));
+}
+
 TEST(SourcesTest, StopEndsARecordedStream) {
   const std::unique_ptr<FrameSource> source = OpenSource(kSmallSim);
   source->Start();
