@@ -122,16 +122,19 @@ TEST(SourcesTest, VideoWithCsvStreamsWhatLoadFrameDecodes) {
   EXPECT_EQ(streamed.frames.size(), 20u);
 }
 
+// 10 frames at 25 per second, frame i all grey 20 i, and no accelerometer CSV beside.
+void WriteGreyVideo(const fs::path& path) {
+  cv::VideoWriter writer(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
+                         25.0, cv::Size(64, 48));
+  ASSERT_TRUE(writer.isOpened());
+  for (int i = 0; i < 10; ++i) writer.write(cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(20 * i)));
+}
+
 // A video without its accelerometer CSV, read with --accel none: its frames alone, timed
 // from 0 at the container's rate.
 TEST(SourcesTest, VideoAloneWithAccelNone) {
   test::TempDir dir;
-  {
-    cv::VideoWriter writer(dir / "walk.avi", cv::CAP_OPENCV_MJPEG,
-                           cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25.0, cv::Size(64, 48));
-    ASSERT_TRUE(writer.isOpened());
-    for (int i = 0; i < 10; ++i) writer.write(cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(20 * i)));
-  }
+  WriteGreyVideo(dir / "walk.avi");
   EXPECT_THROW(OpenSource(dir / "walk.avi"), Error);  // Its own accelerometer is missing.
   const Streamed streamed = StreamAll(*OpenSource(dir / "walk.avi", "none"));
   ASSERT_EQ(streamed.frames.size(), 10u);
@@ -146,12 +149,7 @@ TEST(SourcesTest, VideoAloneWithAccelNone) {
 // as the video's own, beside it or not, and the frames are timed from its first sample.
 TEST(SourcesTest, VideoWithAnAccelerometerCsvGivenApart) {
   test::TempDir dir;
-  {
-    cv::VideoWriter writer(dir / "walk.avi", cv::CAP_OPENCV_MJPEG,
-                           cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 25.0, cv::Size(64, 48));
-    ASSERT_TRUE(writer.isOpened());
-    for (int i = 0; i < 10; ++i) writer.write(cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(20 * i)));
-  }
+  WriteGreyVideo(dir / "walk.avi");
   const int64_t first_ns = 1'700'000'000'000'000'000;
   std::string logged = "#timestamp [ns],a_x [m s^-2],a_y [m s^-2],a_z [m s^-2]\n";
   for (int k = 0; k < 100; ++k) logged += std::to_string(first_ns + k * 5'000'000) + ",0,1,9.8\n";
