@@ -244,6 +244,7 @@ void Runtime::MotionLoop() {
     std::optional<Judgement> judged_between;  // Live, while idle: for the next snapshot.
     int64_t frame = 0;
     int64_t applied = 0;
+    std::optional<int64_t> previous_t_ns;
     while (true) {
       std::optional<HalfDone> half =
           options_.live ? between_.PopUnless([&] { return pending && solved_; }) : between_.Pop();
@@ -269,6 +270,9 @@ void Runtime::MotionLoop() {
       }
       if (auto options = OptionsFor(half->index, &applied)) motion_.set_options(*options);
       FeedAccel(half->frame.t_ns);
+      const int64_t t_ns = half->frame.t_ns;
+      const int64_t frame_interval_ns = previous_t_ns ? t_ns - *previous_t_ns : 0;
+      previous_t_ns = t_ns;
       std::optional<CalibrationJob> job;
       auto snapshot =
           std::make_shared<FrameSnapshot>(motion_.Process(std::move(half->frame), &job));
@@ -295,9 +299,14 @@ void Runtime::MotionLoop() {
       }
       if (pending) {
         std::unique_lock lock(solve_mutex_);
-        const bool judge = options_.live
-                               ? solve_result_.has_value()
-                               : frame >= pending->frame + options_.judge_after_frames;
+        // Offline, no later than the last frame before the next attempt is due (a frame
+        // interval on): a shorter attempt interval than judge_after_frames is kept.
+        const bool next_attempt_due =
+            double(t_ns + frame_interval_ns - pending->job.t_ns) >=
+            motion_.options().material.attempt_every_s * 1e9;
+        const bool judge = options_.live ? solve_result_.has_value()
+                                         : frame >= pending->frame + options_.judge_after_frames ||
+                                               next_attempt_due;
         if (judge) {
           std::optional<Judgement> judged = Judge(*pending, &lock);
           if (!judged) break;  // Stopping.

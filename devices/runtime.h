@@ -107,15 +107,16 @@ struct RuntimeOptions {
   size_t frame_queue = 4;  // Frames waiting for boxes 1-3 (live: the oldest dropped beyond).
   size_t lens_queue = 2;   // Frames done by boxes 1-3 waiting for boxes 4-9.
   // Offline: an attempt made on frame i is judged on frame i + this, waiting for its solve
-  // if it has not ended. Boxes 1-9 go on meanwhile, so the solve overlaps them: 8 frames
-  // (0.27 s at 30 fps) took 640x480 from 39 to 60 frames a second; the verdicts come that
-  // much later. 0 judges on frame i itself, as CalibrationPipeline::Process does. Keep it
-  // below the attempt interval (15 frames), or attempts would start from a calibration
-  // their predecessor has not judged yet.
-  int judge_after_frames = 8;
+  // if it has not ended. Boxes 1-9 go on meanwhile, so the solve overlaps them; the
+  // verdicts come that much later. 0 judges on frame i itself, as
+  // CalibrationPipeline::Process does. It is judged sooner if the next attempt would be
+  // due on the next frame: no attempt waits for its predecessor's verdict.
+  int judge_after_frames = 13;
   // Offline: boxes 1-3 on frame i work with the calibration as it was after frame
   // i - this, waiting for it if needed; boxes 1-3 run at most this many frames ahead.
-  int calibration_lag_frames = 2;
+  // With 2, boxes 1-3 stalled while boxes 4-9 shared the cores with a solve; 6 with
+  // judge_after_frames 13 kept 1.8 cores busy instead of 1.65 (bench/README.md).
+  int calibration_lag_frames = 6;
   // Added to accelerometer timestamps to put them on the camera's clock.
   double accel_time_offset_s = 0.0;
 
