@@ -1,12 +1,14 @@
 // The threaded runtime: its queues, offline runs that repeat to the last digit, snapshots
 // read from another thread while the pipeline runs, and live mode with a source faster
 // than the pipeline. Short 320x240 simulated walks.
+#include <algorithm>
 #include <atomic>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
-#include <mutex>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -144,6 +146,62 @@ TEST(Runtime, TwoOfflineRunsGiveTheSameSummary) {
   for (size_t i = 0; i < first.truth->errors.size(); ++i) {
     ASSERT_EQ(first.truth->errors[i].fx_percent, second.truth->errors[i].fx_percent) << i;
     ASSERT_EQ(first.truth->errors[i].cx_px, second.truth->errors[i].cx_px) << i;
+  }
+}
+
+// Offline, an attempt is judged judge_after_frames after the frame it was made on, or on
+// the frame before the next attempt is due if that comes sooner: an attempt interval
+// shorter than the judging delay is kept, not stretched to it.
+TEST(Runtime, OfflineJudgesBeforeTheNextAttemptIsDue) {
+  const std::unique_ptr<Sequence> sequence = Walk(6.0);
+  const CameraIntrinsics truth = sequence->ground_truth()->front().intrinsics;
+  AccelCalibration accel;
+  accel.cam_from_accel = sequence->session().cam_from_accel;
+  std::vector<int64_t> frame_times;
+  for (size_t i = 0; i < sequence->frame_count(); ++i) {
+    frame_times.push_back(sequence->frame_time_ns(i));
+  }
+  const auto index_of = [&](int64_t t_ns) {
+    return int(std::find(frame_times.begin(), frame_times.end(), t_ns) - frame_times.begin());
+  };
+  const RuntimeOptions options;
+  for (const double every_s : {0.5, 0.25}) {
+    SCOPED_TRACE("attempts every " + std::to_string(every_s) + " s");
+    PipelineOptions pipeline;
+    pipeline.material.attempt_every_s = every_s;
+    std::mutex mutex;
+    std::vector<int64_t> made;             // Each attempt's frame time, in order.
+    std::map<int64_t, int64_t> judged_on;  // Attempt's frame time -> the frame judging it.
+    const Runtime::Solver stand_in = JitteredStandIn(truth, 0);
+    Runtime runtime(
+        *sequence->session().premission_calibration, accel, pipeline, options,
+        [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+          std::lock_guard lock(mutex);
+          if (snapshot->attempt) judged_on[snapshot->attempt->record.t_ns] = snapshot->t_ns;
+        },
+        [&](const CalibrationJob& job) {
+          {
+            std::lock_guard lock(mutex);
+            made.push_back(job.t_ns);
+          }
+          return stand_in(job);
+        });
+    PushSequence(*sequence, &runtime);
+    ASSERT_GE(made.size(), 4u);
+    for (size_t k = 0; k + 1 < made.size(); ++k) {
+      const int at = index_of(made[k]);
+      ASSERT_TRUE(judged_on.count(made[k])) << "attempt " << k << " judged";
+      const int judged = index_of(judged_on[made[k]]);
+      // The first frame on which the next attempt is due.
+      int due = at + 1;
+      while (due < int(frame_times.size()) && double(frame_times[due] - made[k]) < every_s * 1e9) {
+        ++due;
+      }
+      EXPECT_EQ(judged, std::min(at + options.judge_after_frames, due - 1)) << "attempt " << k;
+      EXPECT_GT(index_of(made[k + 1]), judged) << "attempt " << k + 1;
+      // Attempts come on views (every third frame) once due: not put off by a verdict.
+      EXPECT_LE(index_of(made[k + 1]), due + 2) << "attempt " << k + 1;
+    }
   }
 }
 
