@@ -211,7 +211,7 @@ TEST(CalibrationHistoryTest, PersistentJumpRaisesAlarmAndStartsNewRegime) {
   ASSERT_EQ(history.regimes().size(), 2u);
   const Regime& regime = history.regimes()[1];
   EXPECT_EQ(regime.alarm, alarm.id);
-  EXPECT_EQ(regime.founders.size(), 3u);
+  EXPECT_EQ(int(regime.founders.size()), AcceptanceOptions{}.confirm_after);
   EXPECT_GE(regime.start_ns, 30 * kSecond);
   EXPECT_LE(regime.confirmed_ns, 33 * kSecond);
   EXPECT_EQ(history.attempts()[regime.founders.back()].verdict, Verdict::kNewRegime);

@@ -49,6 +49,9 @@ constexpr int kOpenTimeoutMs = 30000;
 constexpr int kHighRmsAt = 20;  // RMS 2.5 px: rejected for its RMS.
 constexpr int kOutlierAt = 30;  // fx +25 px, cx +20 px, once: rejected off the trend.
 constexpr int kKnockAt = 45;    // From here fx, fy drop 2% and cx moves +5 px, and stay.
+// The attempts after the knock that raise the alarm and start the new regime.
+const int kAlarmAt = kKnockAt + AcceptanceOptions{}.alarm_after - 1;
+const int kNewRegimeAt = kKnockAt + AcceptanceOptions{}.confirm_after - 1;
 constexpr int kLastAt = 60;
 
 CameraIntrinsics Premission() {
@@ -218,8 +221,8 @@ void CalibrationPlotsTest::replayReproducesTheFile() {
   QVERIFY(s.differing.empty());
   QCOMPARE(AttemptAt(s, kHighRmsAt).verdict, Verdict::kRejected);
   QCOMPARE(AttemptAt(s, kOutlierAt).verdict, Verdict::kRejected);
-  QCOMPARE(AttemptAt(s, kKnockAt + 1).verdict, Verdict::kAlarm);
-  QCOMPARE(AttemptAt(s, kKnockAt + 2).verdict, Verdict::kNewRegime);
+  QCOMPARE(AttemptAt(s, kAlarmAt).verdict, Verdict::kAlarm);
+  QCOMPARE(AttemptAt(s, kNewRegimeAt).verdict, Verdict::kNewRegime);
   // The trend covers the attempts (the last is a no-update at 60.5 s) every quarter second,
   // and it follows the knock.
   QCOMPARE(s.trend.size(), size_t{(kLastAt - 1) * 4 + 3});
@@ -276,12 +279,12 @@ void CalibrationPlotsTest::markersDrawnWhereTheValuesAre() {
   const AttemptRecord& calm = AttemptAt(*series_, 10);
   const AttemptRecord& outlier = AttemptAt(*series_, kOutlierAt);
   const AttemptRecord& high_rms = AttemptAt(*series_, kHighRmsAt);
-  const AttemptRecord& alarm = AttemptAt(*series_, kKnockAt + 1);
+  const AttemptRecord& alarm = AttemptAt(*series_, kAlarmAt);
   QCOMPARE(calm.verdict, Verdict::kAccepted);
 
   const QPoint calm_at = fx.positionOf(seconds(10), calm.estimate.fx);
   const QPoint outlier_at = fx.positionOf(seconds(kOutlierAt), outlier.estimate.fx);
-  const QPoint alarm_at = fx.positionOf(seconds(kKnockAt + 1), alarm.estimate.fx);
+  const QPoint alarm_at = fx.positionOf(seconds(kAlarmAt), alarm.estimate.fx);
   qInfo("fx markers: accepted at (%d, %d), outlier at (%d, %d), alarm at (%d, %d)", calm_at.x(),
         calm_at.y(), outlier_at.x(), outlier_at.y(), alarm_at.x(), alarm_at.y());
   QVERIFY(fx.chart()->plotArea().contains(fx.chart()->mapFromScene(fx.mapToScene(outlier_at))));
@@ -300,8 +303,8 @@ void CalibrationPlotsTest::markersDrawnWhereTheValuesAre() {
   const TrendSample& between = series_->trend[static_cast<size_t>((15 - 1) * 4 + 2)];  // 15.5 s
   QVERIFY(DrawnNear(fx_image, fx.positionOf(seconds(15) + 0.5, between.value[kFx]), TrendColor()));
   // The alarm's line crosses the whole chart at its time.
-  const QPoint alarm_top = fx.positionOf(seconds(kKnockAt + 1), fx.valueAxis()->max());
-  const QPoint alarm_bottom = fx.positionOf(seconds(kKnockAt + 1), fx.valueAxis()->min());
+  const QPoint alarm_top = fx.positionOf(seconds(kAlarmAt), fx.valueAxis()->max());
+  const QPoint alarm_bottom = fx.positionOf(seconds(kAlarmAt), fx.valueAxis()->min());
   int alarm_pixels = 0;
   for (int y = alarm_top.y() + 1; y < alarm_bottom.y(); ++y) {
     alarm_pixels += DrawnNear(fx_image, QPoint(alarm_top.x(), y), AlarmColor(), 0);
