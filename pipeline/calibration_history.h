@@ -41,7 +41,7 @@ struct AcceptanceOptions {
   // Consecutive mutually consistent attempts off the trend that raise a jump alarm, and
   // that confirm it and start a new regime. Windows overlap (2 s, one every 0.5 s): two
   // attempts in a row share three quarters of their material, and with 2 a steady lens
-  // raised 13 false alarms over 36 walks from the truth (bench/README.md, session 16).
+  // raised 13 false alarms over 36 walks from the truth (docs/history.md).
   int alarm_after = 3;
   int confirm_after = 4;
 
