@@ -301,12 +301,13 @@ void Runtime::MotionLoop() {
         std::unique_lock lock(solve_mutex_);
         // Offline, no later than the last frame before the next attempt is due (a frame
         // interval on): a shorter attempt interval than judge_after_frames is kept.
-        const bool next_attempt_due =
-            double(t_ns + frame_interval_ns - pending->job.t_ns) >=
-            motion_.options().material.attempt_every_s * 1e9;
+        const auto next_attempt_due = [&] {
+          return double(t_ns + frame_interval_ns - pending->job.t_ns) >=
+                 motion_.options().material.attempt_every_s * 1e9;
+        };
         const bool judge = options_.live ? solve_result_.has_value()
                                          : frame >= pending->frame + options_.judge_after_frames ||
-                                               next_attempt_due;
+                                               next_attempt_due();
         if (judge) {
           std::optional<Judgement> judged = Judge(*pending, &lock);
           if (!judged) break;  // Stopping.
