@@ -5,6 +5,7 @@
 #include <set>
 #include <sstream>
 
+#include <Eigen/Core>
 #include <opencv2/imgproc.hpp>
 
 namespace autocal {
@@ -47,6 +48,29 @@ int PatchRadius(const AnchorOptions& options) { return options.window_px + 2; }
 bool Inside(const cv::Mat& image, cv::Point2f p, double margin) {
   return p.x >= margin && p.y >= margin && p.x <= image.cols - 1 - margin &&
          p.y <= image.rows - 1 - margin;
+}
+
+// A float patch (an ROI too) as an Eigen array: its sums run in SIMD.
+using PatchArray = Eigen::Array<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+Eigen::Map<const PatchArray, 0, Eigen::OuterStride<>> AsArray(const cv::Mat& patch) {
+  return {patch.ptr<float>(), patch.rows, patch.cols, Eigen::OuterStride<>(patch.step1())};
+}
+Eigen::Map<PatchArray, 0, Eigen::OuterStride<>> AsArray(cv::Mat& patch) {
+  return {patch.ptr<float>(), patch.rows, patch.cols, Eigen::OuterStride<>(patch.step1())};
+}
+
+// Scales a float patch to zero mean and unit spread into `standardized`; returns the
+// spread, or nothing if it is not above `min_spread`. Not OpenCV's meanStdDev, subtract
+// and divide: on a 15x15 patch they cost more in dispatch than in arithmetic (Align took a
+// tenth of the motion thread, half of it in cv::subtract).
+std::optional<float> Standardize(const cv::Mat& patch, float min_spread, cv::Mat* standardized) {
+  const auto values = AsArray(patch);
+  const float mean = values.mean();
+  const float spread = std::sqrt((values - mean).square().mean());
+  if (!(spread > min_spread)) return std::nullopt;
+  standardized->create(patch.size(), CV_32F);
+  AsArray(*standardized) = (values - mean) / spread;
+  return spread;
 }
 
 // Jacobian of the raw pixel with respect to the undistorted one (the camera matrix alone)
@@ -121,15 +145,12 @@ std::optional<cv::Point2f> AnchoredTracks::Align(const Anchor& anchor, const Dom
   const cv::Rect inner(1, 1, 2 * r + 1, 2 * r + 1);
   // Zero mean and unit spread on both sides: the local equalization of each frame
   // shifts and scales the grey levels of a patch as the view around it changes.
-  cv::Scalar mean, spread;
-  cv::meanStdDev(wide_(inner), mean, spread);
-  if (!(spread[0] > 1.0)) return std::nullopt;  // Too flat to place.
-  cv::subtract(wide_(inner), mean, template_);
-  template_ /= spread[0];
+  const std::optional<float> spread = Standardize(wide_(inner), 1.0f, &template_);
+  if (!spread) return std::nullopt;  // Too flat to place.
   // Central differences (cv::Sobel costs more in setting up than in filtering a patch).
   gx_.create(inner.size(), CV_32F);
   gy_.create(inner.size(), CV_32F);
-  const float half_over_spread = float(0.5 / spread[0]);
+  const float half_over_spread = float(0.5 / *spread);
   for (int row = 0; row < inner.height; ++row) {
     const float* above = wide_.ptr<float>(row);
     const float* middle = wide_.ptr<float>(row + 1);
@@ -141,24 +162,21 @@ std::optional<cv::Point2f> AnchoredTracks::Align(const Anchor& anchor, const Dom
       dy[col] = half_over_spread * (below[col + 1] - above[col + 1]);
     }
   }
-  const double gxx = gx_.dot(gx_), gxy = gx_.dot(gy_), gyy = gy_.dot(gy_);
+  const auto gx = AsArray(gx_), gy = AsArray(gy_), model = AsArray(template_);
+  const double gxx = (gx * gx).sum(), gxy = (gx * gy).sum(), gyy = (gy * gy).sum();
   const double hessian_det = gxx * gyy - gxy * gxy;
   if (!(hessian_det > 1e-6 * (gxx + gyy) * (gxx + gyy))) return std::nullopt;
 
   // Inverse compositional Gauss-Newton on the translation.
   cv::Point2f at = start;
   const auto sample = [&] {
-    cv::getRectSubPix(image, cv::Size(2 * r + 1, 2 * r + 1), at, current_, CV_32F);
-    cv::meanStdDev(current_, mean, spread);
-    if (!(spread[0] > 1e-3)) return false;
-    current_ -= mean;
-    current_ /= spread[0];
-    return true;
+    cv::getRectSubPix(image, cv::Size(2 * r + 1, 2 * r + 1), at, sampled_, CV_32F);
+    return Standardize(sampled_, 1e-3f, &current_).has_value();
   };
   for (int iteration = 0; iteration < options_.max_iterations; ++iteration) {
     if (!sample()) return std::nullopt;
-    cv::subtract(current_, template_, difference_);
-    const double ex = gx_.dot(difference_), ey = gy_.dot(difference_);
+    const auto seen = AsArray(current_);
+    const double ex = (gx * (seen - model)).sum(), ey = (gy * (seen - model)).sum();
     const cv::Point2f step(float((gyy * ex - gxy * ey) / hessian_det),
                            float((gxx * ey - gxy * ex) / hessian_det));
     at -= step;
@@ -166,7 +184,7 @@ std::optional<cv::Point2f> AnchoredTracks::Align(const Anchor& anchor, const Dom
     if (std::hypot(step.x, step.y) < options_.epsilon_px) break;
   }
   if (!sample()) return std::nullopt;
-  if (current_.dot(template_) / double(template_.total()) < options_.min_correlation) {
+  if ((AsArray(current_) * model).mean() < options_.min_correlation) {
     return std::nullopt;
   }
   return at;
