@@ -5,8 +5,9 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
-#include <opencv2/calib3d.hpp>
 
 namespace autocal {
 namespace {
@@ -82,7 +83,119 @@ int SamplesNeeded(double confidence, double outlier_ratio, int limit) {
   return int(std::lround(miss / per_sample));
 }
 
+// Scales and shifts points to their centroid at a mean distance of sqrt(2), the same in x
+// and y so that squared distances keep their proportions (Hartley's normalization).
+Eigen::Matrix3d Normalizer(std::span<const cv::Point2f> points) {
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (const cv::Point2f& p : points) centroid += Eigen::Vector2d(p.x, p.y);
+  centroid /= double(points.size());
+  double distance = 0.0;
+  for (const cv::Point2f& p : points) distance += (Eigen::Vector2d(p.x, p.y) - centroid).norm();
+  distance /= double(points.size());
+  const double scale = distance > 0.0 ? std::sqrt(2.0) / distance : 1.0;
+  Eigen::Matrix3d t = Eigen::Matrix3d::Identity();
+  t(0, 0) = t(1, 1) = scale;
+  t.topRightCorner<2, 1>() = -scale * centroid;
+  return t;
+}
+
 }  // namespace
+
+std::optional<cv::Matx33d> FitHomography(std::span<const cv::Point2f> from,
+                                         std::span<const cv::Point2f> to) {
+  CV_Assert(from.size() == to.size());
+  const int count = int(from.size());
+  if (count < 4) return std::nullopt;
+  const Eigen::Matrix3d t_from = Normalizer(from), t_to = Normalizer(to);
+  std::vector<Eigen::Vector2d> p(count), q(count);
+  for (int i = 0; i < count; ++i) {
+    p[i] = (t_from * Eigen::Vector3d(from[i].x, from[i].y, 1.0)).head<2>();
+    q[i] = (t_to * Eigen::Vector3d(to[i].x, to[i].y, 1.0)).head<2>();
+  }
+
+  // The linear fit: the unit h minimizing |A h|, the eigenvector of A^T A with the smallest
+  // eigenvalue.
+  Eigen::Matrix<double, 9, 9> ata = Eigen::Matrix<double, 9, 9>::Zero();
+  for (int i = 0; i < count; ++i) {
+    Eigen::Matrix<double, 9, 1> u, v;
+    u << p[i].x(), p[i].y(), 1.0, 0.0, 0.0, 0.0, -q[i].x() * p[i].x(), -q[i].x() * p[i].y(),
+        -q[i].x();
+    v << 0.0, 0.0, 0.0, p[i].x(), p[i].y(), 1.0, -q[i].y() * p[i].x(), -q[i].y() * p[i].y(),
+        -q[i].y();
+    ata.selfadjointView<Eigen::Lower>().rankUpdate(u);
+    ata.selfadjointView<Eigen::Lower>().rankUpdate(v);
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eigen(
+      ata.selfadjointView<Eigen::Lower>());
+  if (eigen.info() != Eigen::Success) return std::nullopt;
+  // Points that fix no homography leave more than one direction of (nearly) no residual.
+  if (!(eigen.eigenvalues()(1) > 1e-9 * eigen.eigenvalues()(8))) return std::nullopt;
+  const Eigen::Matrix<double, 9, 1> smallest = eigen.eigenvectors().col(0);
+  if (std::abs(smallest(8)) < 1e-12) return std::nullopt;
+  Eigen::Matrix<double, 8, 1> h = smallest.head<8>() / smallest(8);
+
+  // Levenberg-Marquardt on the transfer error, in the normalized frames: the same
+  // minimum, since the normalization scales every error in `to` alike, and a better
+  // conditioned problem.
+  // The squared error at x, with J^T J (lower triangle) and J^T r.
+  const auto squared_error = [&](const Eigen::Matrix<double, 8, 1>& x,
+                                 Eigen::Matrix<double, 8, 8>* jtj,
+                                 Eigen::Matrix<double, 8, 1>* jtr) {
+    double sum = 0.0;
+    jtj->setZero();
+    jtr->setZero();
+    for (int i = 0; i < count; ++i) {
+      const double a = p[i].x(), b = p[i].y();
+      const double w = 1.0 / (x(6) * a + x(7) * b + 1.0);
+      const double u = (x(0) * a + x(1) * b + x(2)) * w, v = (x(3) * a + x(4) * b + x(5)) * w;
+      const double du = u - q[i].x(), dv = v - q[i].y();
+      sum += du * du + dv * dv;
+      Eigen::Matrix<double, 8, 1> ju, jv;
+      ju << a * w, b * w, w, 0.0, 0.0, 0.0, -u * a * w, -u * b * w;
+      jv << 0.0, 0.0, 0.0, a * w, b * w, w, -v * a * w, -v * b * w;
+      jtj->selfadjointView<Eigen::Lower>().rankUpdate(ju);
+      jtj->selfadjointView<Eigen::Lower>().rankUpdate(jv);
+      *jtr += ju * du + jv * dv;
+    }
+    return sum;
+  };
+  Eigen::Matrix<double, 8, 8> jtj;
+  Eigen::Matrix<double, 8, 1> jtr;
+  double error = squared_error(h, &jtj, &jtr);
+  double damping = 1e-3;
+  // As many steps as OpenCV's refinement takes at most.
+  for (int iteration = 0; iteration < 10 && std::isfinite(error); ++iteration) {
+    Eigen::Matrix<double, 8, 8> damped = jtj.selfadjointView<Eigen::Lower>();
+    damped.diagonal() *= 1.0 + damping;
+    const Eigen::Matrix<double, 8, 1> step = damped.ldlt().solve(-jtr);
+    if (!(step.norm() > 1e-12 * h.norm())) break;
+    const Eigen::Matrix<double, 8, 1> next = h + step;
+    Eigen::Matrix<double, 8, 8> next_jtj;
+    Eigen::Matrix<double, 8, 1> next_jtr;
+    const double next_error = squared_error(next, &next_jtj, &next_jtr);
+    if (next_error < error) {
+      const bool converged = error - next_error <= 1e-12 * error;
+      h = next;
+      error = next_error;
+      jtj = next_jtj;
+      jtr = next_jtr;
+      damping = std::max(damping / 10.0, 1e-9);
+      if (converged) break;
+    } else {
+      damping *= 10.0;
+    }
+  }
+
+  Eigen::Matrix3d normalized;
+  normalized << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1.0;
+  const Eigen::Matrix3d fitted = t_to.inverse() * normalized * t_from;
+  if (!fitted.allFinite() || fitted(2, 2) == 0.0) return std::nullopt;
+  cv::Matx33d result;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) result(r, c) = fitted(r, c) / fitted(2, 2);
+  }
+  return result;
+}
 
 std::optional<cv::Matx33d> FitHomographyRansac(std::span<const cv::Point2f> from,
                                                std::span<const cv::Point2f> to, double threshold_px,
@@ -142,9 +255,7 @@ std::optional<cv::Matx33d> FitHomographyRansac(std::span<const cv::Point2f> from
       in_to.push_back(to[k]);
     }
   }
-  const cv::Mat h = cv::findHomography(in_from, in_to, 0);
-  if (h.empty()) return std::nullopt;
-  return cv::Matx33d(h);
+  return FitHomography(in_from, in_to);
 }
 
 }  // namespace autocal

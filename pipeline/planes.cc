@@ -485,9 +485,8 @@ void PlaneTracker::Detect(const Frame& frame) {
         from.push_back(base[k]);
         to.push_back(now[k]);
       }
-      const cv::Mat refined = cv::findHomography(from, to, 0);
-      if (!refined.empty()) {
-        h = cv::Matx33d(refined);
+      if (const auto refined = FitHomography(from, to)) {
+        h = *refined;
         in = core();
       }
     }
@@ -544,8 +543,7 @@ void PlaneTracker::Detect(const Frame& frame) {
         const Track& track = (*frame.tracks)[i];
         at.push_back(ideal_.at(track.id)[track.At(*t) - track.history.data()]);
       }
-      const cv::Mat fit = cv::findHomography(inlier_base, at, 0);
-      state.chain.emplace_back(*t, fit.empty() ? cv::Matx33d::eye() : cv::Matx33d(fit));
+      state.chain.emplace_back(*t, FitHomography(inlier_base, at).value_or(cv::Matx33d::eye()));
     }
     state.chain.emplace_back(frame.t_ns, h);
     states_.push_back(std::move(state));
@@ -836,9 +834,9 @@ std::vector<ShotPlane> FindPlanesBetweenShots(const KeypointSet& a, const Keypoi
       }
       found[i].inliers.insert(found[i].inliers.end(), found[j].inliers.begin(),
                               found[j].inliers.end());
-      const cv::Mat refit =
-          cv::findHomography(pick(ideal_a, found[i].inliers), pick(ideal_b, found[i].inliers), 0);
-      if (!refit.empty()) found[i].homography = cv::Matx33d(refit);
+      const auto refit =
+          FitHomography(pick(ideal_a, found[i].inliers), pick(ideal_b, found[i].inliers));
+      if (refit) found[i].homography = *refit;
       found.erase(found.begin() + j);
     }
   }
