@@ -134,13 +134,25 @@ bool PlaneOptions::Check(std::string* error) const {
 std::vector<cv::Point2f> UndistortPixels(const std::vector<cv::Point2f>& points,
                                          const CameraIntrinsics& camera) {
   if (points.empty() || !Distorted(camera)) return points;
-  const auto d = camera.Distortion();
-  const cv::Matx33d k = CameraMatrix(camera);
   std::vector<cv::Point2f> undistorted;
-  // OpenCV's default of 5 fixed-point steps falls short on a strong barrel's corners.
-  cv::undistortPoints(points, undistorted, k, std::vector<double>(d.begin(), d.end()),
-                      cv::noArray(), k,
-                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-6));
+  undistorted.reserve(points.size());
+  for (const cv::Point2f& point : points) {
+    // Newton's method, a few steps, where cv::undistortPoints iterates a fixed point: on a
+    // strong barrel's corners that takes up to 100 steps (it was 4% of the motion thread).
+    if (const auto ideal = UndistortPixel(camera, {point.x, point.y})) {
+      undistorted.emplace_back(float(ideal->x()), float(ideal->y()));
+      continue;
+    }
+    // Beyond the fold no ray sees the point; OpenCV's fixed point still gives one nearby.
+    const auto d = camera.Distortion();
+    const cv::Matx33d k = CameraMatrix(camera);
+    std::vector<cv::Point2f> fixed_point;
+    cv::undistortPoints(
+        std::vector<cv::Point2f>{point}, fixed_point, k, std::vector<double>(d.begin(), d.end()),
+        cv::noArray(), k,
+        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-6));
+    undistorted.push_back(fixed_point.front());
+  }
   return undistorted;
 }
 
