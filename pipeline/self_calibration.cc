@@ -454,7 +454,6 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   for (int f : posed) frame_poses[f] = FromIsometry(*structure.cam_from_world[f]);
   std::vector<Pose> plane_poses(tracks.size());
   std::vector<std::map<int, std::array<double, 2>>> plane_points(tracks.size());
-  std::vector<std::pair<int, int>> gauge_points;  // (plane, point id) of each plane's axis point.
   struct Residual {
     int frame, plane, point;
     Eigen::Vector2d pixel;
@@ -688,18 +687,47 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     std::nth_element(mean_sq.begin(), mean_sq.begin() + mean_sq.size() / 2, mean_sq.end());
     const double limit_sq = std::pow(options.max_point_rms_ratio, 2) * mean_sq[mean_sq.size() / 2];
     std::set<std::pair<int, int>> left_out;
+    std::map<int, int> staying;  // Per plane, its points in the problem that stay.
     for (const auto& [point, sum] : by_point) {
-      const auto& [plane, id] = point;
-      // The two points that fix the plane's frame stay.
-      const bool gauge = id == plane_points[plane].begin()->first ||
-                         id == std::next(plane_points[plane].begin())->first;
-      if (sum.first / sum.second > limit_sq && !gauge) left_out.insert(point);
+      if (sum.first / sum.second > limit_sq) {
+        left_out.insert(point);
+      } else {
+        ++staying[point.first];
+      }
+    }
+    // A plane whose points nearly all fit badly keeps the two that fix its frame. Where
+    // enough stay, those two may go too, and the next two fix the frame: a track of a
+    // filing cabinet held by the wall's plane, 110 times the median point's RMS, was the
+    // plane's first point, stayed, and took the plane's board over the cabinet.
+    for (size_t p = 0; p < plane_points.size(); ++p) {
+      if (plane_points[p].size() < 2 || staying[int(p)] >= 2) continue;
+      left_out.erase({int(p), plane_points[p].begin()->first});
+      left_out.erase({int(p), std::next(plane_points[p].begin())->first});
+    }
+    std::set<int> frame_lost;  // Planes whose first or second point went.
+    for (const auto& [plane, id] : left_out) {
+      if (id == plane_points[plane].begin()->first ||
+          id == std::next(plane_points[plane].begin())->first) {
+        frame_lost.insert(plane);
+      }
     }
     for (const auto& [plane, id] : left_out) {
       double* const block = point_blocks[plane].at(id);
       ordering->Remove(block);
       problem.RemoveParameterBlock(block);
       plane_points[plane].erase(id);
+    }
+    for (const int plane : frame_lost) {
+      std::vector<double*> first_two;
+      for (const auto& [id, uv] : plane_points[plane]) {
+        double* const block = point_blocks[plane].at(id);
+        if (problem.HasParameterBlock(block)) first_two.push_back(block);
+        if (first_two.size() == 2) break;
+      }
+      // Held where they are: any place fixes the plane's frame, as (0, 0) and v = 0 did.
+      problem.SetParameterBlockConstant(first_two[0]);
+      problem.SetManifold(first_two[1], new ceres::SubsetManifold(2, {1}));
+      ordering->AddElementToGroup(first_two[1], 1);
     }
     std::erase_if(residuals, [&](const Residual& r) {
       return left_out.count({r.plane, r.point}) > 0;
