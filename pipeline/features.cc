@@ -1,7 +1,6 @@
 #include "pipeline/features.h"
 
 #include <algorithm>
-#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -157,45 +156,20 @@ std::vector<cv::DMatch> MatchKeypoints(const KeypointSet& a, const KeypointSet& 
     throw Error("MatchKeypoints: the two sets hold different kinds of descriptor");
   }
   const int norm = a.descriptors.depth() == CV_8U ? cv::NORM_HAMMING : cv::NORM_L2;
-  // Every distance once, for both directions: cv::BFMatcher's knnMatch and match computed
-  // them twice (re-finding lost planes spent half its time there). Scanned in index order
-  // with strict comparisons, ties go to the lowest index, as BFMatcher gives them.
-  cv::Mat distances;
-  cv::batchDistance(a.descriptors, b.descriptors, distances,
-                    norm == cv::NORM_HAMMING ? CV_32S : CV_32F, cv::noArray(), norm);
-  distances.convertTo(distances, CV_32F);
-  std::vector<int> nearest_in_a(b.descriptors.rows, -1);
-  std::vector<float> nearest_in_a_distance(b.descriptors.rows,
-                                           std::numeric_limits<float>::infinity());
-  for (int i = 0; i < distances.rows; ++i) {
-    const float* row = distances.ptr<float>(i);
-    for (int j = 0; j < distances.cols; ++j) {
-      if (row[j] < nearest_in_a_distance[j]) {
-        nearest_in_a_distance[j] = row[j];
-        nearest_in_a[j] = i;
-      }
-    }
-  }
+  cv::BFMatcher matcher(norm);
+  std::vector<std::vector<cv::DMatch>> forward;
+  std::vector<cv::DMatch> backward;
+  matcher.knnMatch(a.descriptors, b.descriptors, forward, 2);
+  matcher.match(b.descriptors, a.descriptors, backward);
   std::vector<cv::DMatch> matches;
-  for (int i = 0; i < distances.rows; ++i) {
-    const float* row = distances.ptr<float>(i);
-    int best = -1;
-    float best_distance = std::numeric_limits<float>::infinity();
-    float second_distance = std::numeric_limits<float>::infinity();
-    for (int j = 0; j < distances.cols; ++j) {
-      if (row[j] < best_distance) {
-        second_distance = best_distance;
-        best_distance = row[j];
-        best = j;
-      } else if (row[j] < second_distance) {
-        second_distance = row[j];
-      }
+  for (const std::vector<cv::DMatch>& candidates : forward) {
+    if (candidates.empty()) continue;
+    const cv::DMatch& best = candidates[0];
+    if (candidates.size() > 1 && best.distance >= options.match_ratio * candidates[1].distance) {
+      continue;
     }
-    if (best < 0) continue;
-    // Lowe's ratio test, where a second candidate exists.
-    if (distances.cols > 1 && best_distance >= options.match_ratio * second_distance) continue;
-    if (nearest_in_a[best] != i) continue;
-    matches.emplace_back(i, best, best_distance);
+    if (backward[best.trainIdx].trainIdx != best.queryIdx) continue;
+    matches.push_back(best);
   }
   return matches;
 }

@@ -180,48 +180,6 @@ void ExpectMatchesFollowTheWarp(DescriptorType type) {
   EXPECT_GT(right, 0.9 * matches.size()) << right << " of " << matches.size();
 }
 
-// The matches cv::BFMatcher gives: the two nearest forward, Lowe's ratio, the nearest
-// backward for the cross-check.
-std::vector<cv::DMatch> BruteForceMatches(const KeypointSet& a, const KeypointSet& b,
-                                          const FeatureOptions& options) {
-  cv::BFMatcher matcher(a.descriptors.depth() == CV_8U ? cv::NORM_HAMMING : cv::NORM_L2);
-  std::vector<std::vector<cv::DMatch>> forward;
-  std::vector<cv::DMatch> backward;
-  matcher.knnMatch(a.descriptors, b.descriptors, forward, 2);
-  matcher.match(b.descriptors, a.descriptors, backward);
-  std::vector<cv::DMatch> matches;
-  for (const std::vector<cv::DMatch>& candidates : forward) {
-    const cv::DMatch& best = candidates[0];
-    if (candidates.size() > 1 && best.distance >= options.match_ratio * candidates[1].distance) {
-      continue;
-    }
-    if (backward[best.trainIdx].trainIdx == best.queryIdx) matches.push_back(best);
-  }
-  return matches;
-}
-
-TEST(Keypoints, MatchesAreBruteForceMatchersToTheLastTie) {
-  const cv::Mat gray = OfficeFrame("640x480");
-  const cv::Mat warp = cv::getRotationMatrix2D({320, 240}, 7.0, 0.9);
-  cv::Mat warped;
-  cv::warpAffine(gray, warped, warp, gray.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-  for (const DescriptorType type : {DescriptorType::kOrb, DescriptorType::kSift}) {
-    FeatureOptions options;
-    options.descriptor = type;
-    const KeypointSet a = DetectKeypoints(gray, options);
-    const KeypointSet b = DetectKeypoints(warped, options);
-    const std::vector<cv::DMatch> ours = MatchKeypoints(a, b, options);
-    const std::vector<cv::DMatch> opencv = BruteForceMatches(a, b, options);
-    ASSERT_EQ(ours.size(), opencv.size());
-    for (size_t k = 0; k < ours.size(); ++k) {
-      EXPECT_EQ(ours[k].queryIdx, opencv[k].queryIdx);
-      EXPECT_EQ(ours[k].trainIdx, opencv[k].trainIdx);
-      EXPECT_EQ(ours[k].distance, opencv[k].distance);
-    }
-    EXPECT_GT(ours.size(), 50u);
-  }
-}
-
 TEST(Keypoints, OrbMatchesFollowARotationAndScale) {
   ExpectMatchesFollowTheWarp(DescriptorType::kOrb);
 }
