@@ -70,7 +70,7 @@ class AnchoredTracks {
 
   AnchorOptions options_;
   std::map<int, Anchor> anchors_;                             // By track id.
-  cv::Mat wide_, gx_, gy_, template_, sampled_, current_;  // Scratch of Align.
+  cv::Mat wide_, gx_, gy_, template_, sampled_, current_;     // Scratch of Align.
 };
 
 }  // namespace autocal

@@ -136,8 +136,8 @@ std::optional<cv::Matx33d> FitHomography(std::span<const cv::Point2f> from,
 
   // Levenberg-Marquardt on the transfer error, in the normalized frames: the same
   // minimum, since the normalization scales every error in `to` alike, and a better
-  // conditioned problem.
-  // The squared error at x, with J^T J (lower triangle) and J^T r.
+  // conditioned problem. `squared_error` gives the error at x, with J^T J (its lower
+  // triangle) and J^T r.
   const auto squared_error = [&](const Eigen::Matrix<double, 8, 1>& x,
                                  Eigen::Matrix<double, 8, 8>* jtj,
                                  Eigen::Matrix<double, 8, 1>* jtr) {

@@ -106,6 +106,24 @@ TEST(UndistortPixels, AgreesWithTheCameraModelOnAStrongBarrel) {
   }
   EXPECT_LT(worst, 1e-3) << "px";
   EXPECT_LT(worst_from_opencv, 1e-3) << "px";
+  // A barrel so strong that the corners lie beyond its fold: no ray sees them, and there
+  // the points are OpenCV's fixed point, as before; a point inside is still exact.
+  CameraIntrinsics folded = TestCamera();
+  folded.k1 = -1.0;
+  const std::vector<cv::Point2f> corner_and_inside = {{0.f, 0.f}, {170.f, 125.f}};
+  ASSERT_FALSE(Unproject(folded, {0.0, 0.0}).has_value());
+  const std::vector<cv::Point2f> past_fold = UndistortPixels(corner_and_inside, folded);
+  const auto folded_d = folded.Distortion();
+  const cv::Matx33d folded_k(folded.fx, 0, folded.cx, 0, folded.fy, folded.cy, 0, 0, 1);
+  std::vector<cv::Point2f> fixed_point;
+  cv::undistortPoints(std::vector<cv::Point2f>{corner_and_inside[0]}, fixed_point, folded_k,
+                      std::vector<double>(folded_d.begin(), folded_d.end()), cv::noArray(),
+                      folded_k,
+                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-6));
+  EXPECT_EQ(past_fold[0], fixed_point[0]);
+  const Eigen::Vector3d inside_ray((past_fold[1].x - folded.cx) / folded.fx,
+                                   (past_fold[1].y - folded.cy) / folded.fy, 1.0);
+  EXPECT_LT((Project(folded, inside_ray) - Eigen::Vector2d(170, 125)).norm(), 1e-3);
   // Without distortion, nothing moves.
   CameraIntrinsics pinhole = TestCamera();
   EXPECT_EQ(UndistortPixels(pixels, pinhole), pixels);
