@@ -699,16 +699,17 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     // enough stay, those two may go too, and the next two fix the frame: a track of a
     // filing cabinet held by the wall's plane, 110 times the median point's RMS, was the
     // plane's first point, stayed, and took the plane's board over the cabinet.
+    std::set<int> frame_lost;  // Planes whose first or second point goes.
     for (size_t p = 0; p < plane_points.size(); ++p) {
-      if (plane_points[p].size() < 2 || staying[int(p)] >= 2) continue;
-      left_out.erase({int(p), plane_points[p].begin()->first});
-      left_out.erase({int(p), std::next(plane_points[p].begin())->first});
-    }
-    std::set<int> frame_lost;  // Planes whose first or second point went.
-    for (const auto& [plane, id] : left_out) {
-      if (id == plane_points[plane].begin()->first ||
-          id == std::next(plane_points[plane].begin())->first) {
-        frame_lost.insert(plane);
+      if (plane_points[p].size() < 2) continue;
+      const std::pair<int, int> first(int(p), plane_points[p].begin()->first);
+      const std::pair<int, int> second(int(p), std::next(plane_points[p].begin())->first);
+      if (!left_out.count(first) && !left_out.count(second)) continue;
+      if (staying[int(p)] >= 2) {
+        frame_lost.insert(int(p));
+      } else {
+        left_out.erase(first);
+        left_out.erase(second);
       }
     }
     for (const auto& [plane, id] : left_out) {

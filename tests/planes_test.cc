@@ -75,6 +75,19 @@ TEST(MotionStageOptions, DefaultsAreValidAndFaultsAreNamed) {
   fails_on([](MotionStageOptions* o) { o->planes.baseline_frames = 0; }, "planes.baseline_frames");
 }
 
+// OpenCV's undistortion of `pixels` through `camera`, iterated as the criteria say.
+std::vector<cv::Point2f> OpenCvUndistorted(const std::vector<cv::Point2f>& pixels,
+                                           const CameraIntrinsics& camera, int steps,
+                                           double epsilon) {
+  const auto d = camera.Distortion();
+  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  std::vector<cv::Point2f> undistorted;
+  cv::undistortPoints(
+      pixels, undistorted, k, std::vector<double>(d.begin(), d.end()), cv::noArray(), k,
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, steps, epsilon));
+  return undistorted;
+}
+
 TEST(UndistortPixels, AgreesWithTheCameraModelOnAStrongBarrel) {
   CameraIntrinsics camera = TestCamera();
   camera.k1 = -0.3;
@@ -90,12 +103,7 @@ TEST(UndistortPixels, AgreesWithTheCameraModelOnAStrongBarrel) {
   ASSERT_EQ(ideal.size(), pixels.size());
   // Distorted again by the forward model, each lands on its pixel; and OpenCV, iterating to
   // convergence, finds the same.
-  const auto d = camera.Distortion();
-  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  std::vector<cv::Point2f> opencv;
-  cv::undistortPoints(
-      pixels, opencv, k, std::vector<double>(d.begin(), d.end()), cv::noArray(), k,
-      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 1000, 1e-9));
+  const std::vector<cv::Point2f> opencv = OpenCvUndistorted(pixels, camera, 1000, 1e-9);
   double worst = 0.0, worst_from_opencv = 0.0;
   for (size_t i = 0; i < pixels.size(); ++i) {
     const Eigen::Vector3d ray((ideal[i].x - camera.cx) / camera.fx,
@@ -113,14 +121,7 @@ TEST(UndistortPixels, AgreesWithTheCameraModelOnAStrongBarrel) {
   const std::vector<cv::Point2f> corner_and_inside = {{0.f, 0.f}, {170.f, 125.f}};
   ASSERT_FALSE(Unproject(folded, {0.0, 0.0}).has_value());
   const std::vector<cv::Point2f> past_fold = UndistortPixels(corner_and_inside, folded);
-  const auto folded_d = folded.Distortion();
-  const cv::Matx33d folded_k(folded.fx, 0, folded.cx, 0, folded.fy, folded.cy, 0, 0, 1);
-  std::vector<cv::Point2f> fixed_point;
-  cv::undistortPoints(std::vector<cv::Point2f>{corner_and_inside[0]}, fixed_point, folded_k,
-                      std::vector<double>(folded_d.begin(), folded_d.end()), cv::noArray(),
-                      folded_k,
-                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-6));
-  EXPECT_EQ(past_fold[0], fixed_point[0]);
+  EXPECT_EQ(past_fold[0], OpenCvUndistorted({corner_and_inside[0]}, folded, 100, 1e-6)[0]);
   const Eigen::Vector3d inside_ray((past_fold[1].x - folded.cx) / folded.fx,
                                    (past_fold[1].y - folded.cy) / folded.fy, 1.0);
   EXPECT_LT((Project(folded, inside_ray) - Eigen::Vector2d(170, 125)).norm(), 1e-3);
