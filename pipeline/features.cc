@@ -1,6 +1,10 @@
 #include "pipeline/features.h"
 
 #include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -149,27 +153,85 @@ KeypointSet DetectKeypoints(const cv::Mat& gray, const FeatureOptions& options,
   return set;
 }
 
+namespace {
+
+// The CPU's popcount instruction where it has one: without it a 64-bit popcount is a
+// library call, and a distance as slow as OpenCV's per-pair one.
+#if defined(__x86_64__)
+#define AUTOCAL_POPCOUNT_CLONES [[gnu::target_clones("popcnt", "default")]]
+#else
+#define AUTOCAL_POPCOUNT_CLONES
+#endif
+
+// Hamming distances between the rows of two binary descriptor matrices.
+AUTOCAL_POPCOUNT_CLONES void HammingDistances(const cv::Mat& a, const cv::Mat& b,
+                                              cv::Mat* distances) {
+  const int words = a.cols / 8;
+  const int tail = a.cols % 8;
+  const auto load = [](const uchar* at, int bytes) {
+    uint64_t word = 0;
+    std::memcpy(&word, at, size_t(bytes));
+    return word;
+  };
+  for (int i = 0; i < a.rows; ++i) {
+    const uchar* x = a.ptr<uchar>(i);
+    float* out = distances->ptr<float>(i);
+    for (int j = 0; j < b.rows; ++j) {
+      const uchar* y = b.ptr<uchar>(j);
+      int count = 0;
+      for (int w = 0; w < words; ++w)
+        count += std::popcount(load(x + 8 * w, 8) ^ load(y + 8 * w, 8));
+      if (tail > 0) count += std::popcount(load(x + 8 * words, tail) ^ load(y + 8 * words, tail));
+      out[j] = float(count);
+    }
+  }
+}
+
+}  // namespace
+
 std::vector<cv::DMatch> MatchKeypoints(const KeypointSet& a, const KeypointSet& b,
                                        const FeatureOptions& options) {
   if (a.descriptors.empty() || b.descriptors.empty()) return {};
   if (a.descriptors.type() != b.descriptors.type() || a.descriptors.cols != b.descriptors.cols) {
     throw Error("MatchKeypoints: the two sets hold different kinds of descriptor");
   }
-  const int norm = a.descriptors.depth() == CV_8U ? cv::NORM_HAMMING : cv::NORM_L2;
-  cv::BFMatcher matcher(norm);
-  std::vector<std::vector<cv::DMatch>> forward;
-  std::vector<cv::DMatch> backward;
-  matcher.knnMatch(a.descriptors, b.descriptors, forward, 2);
-  matcher.match(b.descriptors, a.descriptors, backward);
-  std::vector<cv::DMatch> matches;
-  for (const std::vector<cv::DMatch>& candidates : forward) {
-    if (candidates.empty()) continue;
-    const cv::DMatch& best = candidates[0];
-    if (candidates.size() > 1 && best.distance >= options.match_ratio * candidates[1].distance) {
-      continue;
+  // Every distance once, for both directions (cv::BFMatcher's knnMatch and match computed
+  // each twice, at 9 ms for 1446 x 633 ORB descriptors where this takes 1-2). Scanned in
+  // index order with strict comparisons, ties go to the lowest index, as BFMatcher's do.
+  cv::Mat distances(a.descriptors.rows, b.descriptors.rows, CV_32F);
+  if (a.descriptors.depth() == CV_8U) {
+    HammingDistances(a.descriptors, b.descriptors, &distances);
+  } else {
+    cv::batchDistance(a.descriptors, b.descriptors, distances, CV_32F, cv::noArray(), cv::NORM_L2);
+  }
+  std::vector<int> nearest_in_a(distances.cols, -1);
+  std::vector<float> nearest_in_a_distance(distances.cols, std::numeric_limits<float>::infinity());
+  for (int i = 0; i < distances.rows; ++i) {
+    const float* row = distances.ptr<float>(i);
+    for (int j = 0; j < distances.cols; ++j) {
+      if (row[j] < nearest_in_a_distance[j]) {
+        nearest_in_a_distance[j] = row[j];
+        nearest_in_a[j] = i;
+      }
     }
-    if (backward[best.trainIdx].trainIdx != best.queryIdx) continue;
-    matches.push_back(best);
+  }
+  std::vector<cv::DMatch> matches;
+  for (int i = 0; i < distances.rows; ++i) {
+    const float* row = distances.ptr<float>(i);
+    int best = 0;
+    float second_distance = std::numeric_limits<float>::infinity();
+    for (int j = 1; j < distances.cols; ++j) {
+      if (row[j] < row[best]) {
+        second_distance = row[best];
+        best = j;
+      } else if (row[j] < second_distance) {
+        second_distance = row[j];
+      }
+    }
+    // Lowe's ratio test, where a second candidate exists; then the cross-check.
+    if (row[best] >= options.match_ratio * second_distance) continue;
+    if (nearest_in_a[best] != i) continue;
+    matches.emplace_back(i, best, row[best]);
   }
   return matches;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
 
 #include <gtest/gtest.h>
 #include <opencv2/features2d.hpp>
@@ -178,6 +179,72 @@ void ExpectMatchesFollowTheWarp(DescriptorType type) {
   }
   EXPECT_GT(matches.size(), 100u);
   EXPECT_GT(right, 0.9 * matches.size()) << right << " of " << matches.size();
+}
+
+// The matches cv::BFMatcher gives: the two nearest forward, Lowe's ratio, the nearest
+// backward for the cross-check.
+std::vector<cv::DMatch> BruteForceMatches(const KeypointSet& a, const KeypointSet& b,
+                                          const FeatureOptions& options) {
+  cv::BFMatcher matcher(a.descriptors.depth() == CV_8U ? cv::NORM_HAMMING : cv::NORM_L2);
+  std::vector<std::vector<cv::DMatch>> forward;
+  std::vector<cv::DMatch> backward;
+  matcher.knnMatch(a.descriptors, b.descriptors, forward, 2);
+  matcher.match(b.descriptors, a.descriptors, backward);
+  std::vector<cv::DMatch> matches;
+  for (const std::vector<cv::DMatch>& candidates : forward) {
+    const cv::DMatch& best = candidates[0];
+    if (candidates.size() > 1 && best.distance >= options.match_ratio * candidates[1].distance) {
+      continue;
+    }
+    if (backward[best.trainIdx].trainIdx == best.queryIdx) matches.push_back(best);
+  }
+  return matches;
+}
+
+void ExpectSameMatches(const KeypointSet& a, const KeypointSet& b, const FeatureOptions& options,
+                       size_t at_least) {
+  const std::vector<cv::DMatch> ours = MatchKeypoints(a, b, options);
+  const std::vector<cv::DMatch> opencv = BruteForceMatches(a, b, options);
+  ASSERT_EQ(ours.size(), opencv.size());
+  for (size_t k = 0; k < ours.size(); ++k) {
+    EXPECT_EQ(ours[k].queryIdx, opencv[k].queryIdx) << k;
+    EXPECT_EQ(ours[k].trainIdx, opencv[k].trainIdx) << k;
+    EXPECT_EQ(ours[k].distance, opencv[k].distance) << k;
+  }
+  EXPECT_GE(ours.size(), at_least);
+}
+
+TEST(Keypoints, MatchesAreBruteForceMatchersToTheLastTie) {
+  const cv::Mat gray = OfficeFrame("640x480");
+  const cv::Mat warp = cv::getRotationMatrix2D({320, 240}, 7.0, 0.9);
+  cv::Mat warped;
+  cv::warpAffine(gray, warped, warp, gray.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  for (const DescriptorType type : {DescriptorType::kOrb, DescriptorType::kSift}) {
+    FeatureOptions options;
+    options.descriptor = type;
+    ExpectSameMatches(DetectKeypoints(gray, options), DetectKeypoints(warped, options), options,
+                      50);
+  }
+  // Short binary descriptors, 1 to 13 bytes (a tail beyond whole 64-bit words): b's rows
+  // are a's with a bit flipped, repeated (exact ties), among random ones; one candidate
+  // alone.
+  cv::RNG rng(7);
+  for (const auto& [rows_a, rows_b, bytes] :
+       {std::tuple{300, 200, 3}, {40, 1, 5}, {64, 48, 8}, {120, 90, 13}, {50, 60, 1}}) {
+    KeypointSet a, b;
+    a.descriptors.create(rows_a, bytes, CV_8U);
+    b.descriptors.create(rows_b, bytes, CV_8U);
+    rng.fill(a.descriptors, cv::RNG::UNIFORM, 0, 256);
+    rng.fill(b.descriptors, cv::RNG::UNIFORM, 0, 256);
+    for (int j = 0; j < rows_b / 2; ++j) {
+      a.descriptors.row((7 * (j / 2)) % rows_a).copyTo(b.descriptors.row(j));
+      b.descriptors.at<uchar>(j, rng.uniform(0, bytes)) ^= uchar(1 << rng.uniform(0, 8));
+    }
+    ExpectSameMatches(a, b, FeatureOptions(), 1);
+  }
+  KeypointSet same;
+  same.descriptors = cv::Mat(20, 32, CV_8U, cv::Scalar(0x5a));
+  EXPECT_TRUE(MatchKeypoints(same, same, FeatureOptions()).empty());
 }
 
 TEST(Keypoints, OrbMatchesFollowARotationAndScale) {
