@@ -37,8 +37,9 @@ std::vector<std::pair<std::string, double>> BoxTimings::Named() const {
   return {{"lines", lines_ms},       {"distortion", distortion_ms},
           {"rectify", rectify_ms},   {"features", features_ms},
           {"flow", flow_ms},         {"planes", planes_ms},
-          {"inertial", inertial_ms}, {"material", material_ms},
-          {"calibration", calibration_ms}, {"history", history_ms}};
+          {"refind", refind_ms},     {"inertial", inertial_ms},
+          {"material", material_ms}, {"calibration", calibration_ms},
+          {"history", history_ms}};
 }
 
 LensHalf::LensHalf(const PipelineOptions& options)
@@ -142,6 +143,7 @@ FrameSnapshot MotionHalf::Process(LensFrame frame, std::optional<CalibrationJob>
   snapshot.timing.features_ms = snapshot.motion.features_ms;
   snapshot.timing.flow_ms = snapshot.motion.flow_ms;
   snapshot.timing.planes_ms = snapshot.motion.planes_ms;
+  snapshot.timing.refind_ms = snapshot.motion.refind_ms;
 
   auto start = std::chrono::steady_clock::now();
   snapshot.inertial = inertial_.Process(frame.t_ns, VisionBetweenFrames(snapshot.motion));

@@ -55,6 +55,7 @@ struct BoxTimings {
   double features_ms = 0.0;     // Box 4.
   double flow_ms = 0.0;         // Box 5.
   double planes_ms = 0.0;       // Box 6.
+  double refind_ms = 0.0;       // Box 6: lost planes re-found by box 4's keypoints.
   double inertial_ms = 0.0;     // Box 7.
   double material_ms = 0.0;     // Box 9: the window, and the material when an attempt is due.
   double calibration_ms = 0.0;  // Box 10: the solve.

@@ -252,7 +252,8 @@ TEST(RunSummary, JsonReadsBackWithOpenCv) {
   EXPECT_EQ(int(json["updates"]["attempted"]), report.attempts);
   EXPECT_EQ(int(json["updates"]["accepted"]), 0);
   EXPECT_TRUE(json["alarms"].isSeq());
-  for (const char* box : {"lines", "rectify", "features", "flow", "planes", "inertial", "frame"}) {
+  for (const char* box :
+       {"lines", "rectify", "features", "flow", "planes", "refind", "inertial", "frame"}) {
     EXPECT_GT(double(json["timing_ms"][box]["median"]), 0.0) << box;
     EXPECT_GE(double(json["timing_ms"][box]["p95"]), double(json["timing_ms"][box]["median"]));
   }

@@ -12,7 +12,7 @@ namespace autocal {
 namespace {
 
 // Box order, with what each name stands for.
-const std::array<std::pair<const char*, const char*>, 11> kRows = {{
+const std::array<std::pair<const char*, const char*>, 12> kRows = {{
     {"frame", "Frame: boxes 1-9 and the judgement, on the frame's own threads"},
     {"lines", "1  Lines and snakes"},
     {"distortion", "2  Distortion from the plumb lines (a worker, every 30 frames)"},
@@ -20,6 +20,7 @@ const std::array<std::pair<const char*, const char*>, 11> kRows = {{
     {"features", "4  Corners"},
     {"flow", "5  Optical flow"},
     {"planes", "6  Dominant planes"},
+    {"refind", "6  Lost planes re-found by their keypoints"},
     {"inertial", "7  Accelerometer"},
     {"material", "9  Window and material"},
     {"calibration", "10  Calibration solve (a worker, per attempt)"},
@@ -37,7 +38,7 @@ TimingTable::TimingTable(QWidget* parent)
   table_->setEditTriggers(QAbstractItemView::NoEditTriggers);
   table_->setSelectionMode(QAbstractItemView::NoSelection);
   table_->verticalHeader()->hide();
-  // One line a row: the eleven boxes fit the dock without scrolling.
+  // One line a row: the twelve rows fit the dock without scrolling.
   table_->verticalHeader()->setDefaultSectionSize(table_->fontMetrics().height() + 6);
   table_->horizontalHeader()->setSectionResizeMode(kBox, QHeaderView::Stretch);
   for (int column = kMedian; column < kNumColumns; ++column) {
