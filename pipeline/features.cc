@@ -186,6 +186,7 @@ AUTOCAL_POPCOUNT_CLONES void HammingDistances(const cv::Mat& a, const cv::Mat& b
     }
   }
 }
+#undef AUTOCAL_POPCOUNT_CLONES
 
 }  // namespace
 

@@ -38,7 +38,7 @@ TimingTable::TimingTable(QWidget* parent)
   table_->setEditTriggers(QAbstractItemView::NoEditTriggers);
   table_->setSelectionMode(QAbstractItemView::NoSelection);
   table_->verticalHeader()->hide();
-  // One line a row: the twelve rows fit the dock without scrolling.
+  // One line a row, so that a short dock shows most of them.
   table_->verticalHeader()->setDefaultSectionSize(table_->fontMetrics().height() + 6);
   table_->horizontalHeader()->setSectionResizeMode(kBox, QHeaderView::Stretch);
   for (int column = kMedian; column < kNumColumns; ++column) {
