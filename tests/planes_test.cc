@@ -80,7 +80,8 @@ std::vector<cv::Point2f> OpenCvUndistorted(const std::vector<cv::Point2f>& pixel
                                            const CameraIntrinsics& camera, int steps,
                                            double epsilon) {
   const auto d = camera.Distortion();
-  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  cv::Matx33d k;
+  cv::eigen2cv(camera.CameraMatrix(), k);
   std::vector<cv::Point2f> undistorted;
   cv::undistortPoints(
       pixels, undistorted, k, std::vector<double>(d.begin(), d.end()), cv::noArray(), k,
