@@ -89,7 +89,9 @@ struct SelfCalibrationOptions {
   int min_points_per_plane = 12;         // Planes with fewer tracked points are left out.
   double min_rotation_deg = 8.0;         // Views must differ by this much in orientation.
   double max_focal_sigma = 0.01;         // No update when sigma(fx) / fx exceeds this.
-  int max_iterations = 100;              // Levenberg-Marquardt iterations.
+  // Levenberg-Marquardt iterations a pass; a last pass still descending after them makes no
+  // update (it was crawling along a nearly flat valley, and stopped anywhere on it).
+  int max_iterations = 100;
   // Converged when an iteration lowers the cost by less than this fraction: Ceres' 1e-6
   // took one or two more iterations in seven, moving fx by 0.01% at most.
   double function_tolerance = 1e-5;

@@ -571,6 +571,31 @@ TEST(SelfCalibration, RotationAboutTheOpticalAxisGivesNoUpdate) {
   EXPECT_NE(result.reason.find("not observable"), std::string::npos) << result.reason;
 }
 
+// A solve still descending when its iterations run out stopped somewhere arbitrary along
+// its way (outdoors, a valley the ground alone leaves nearly flat): no update. Here the
+// same window converges with the iterations it needs and is cut short with two.
+TEST(SelfCalibration, SolveCutShortGivesNoUpdate) {
+  cv::RNG rng(4);
+  const Room room = MakeRoom(rng);
+  const CalibrationMaterial material =
+      Observe(room, Walk(LookingAbout, 40), test::SonnarLikeCamera(), 0.5, rng);
+  const SelfCalibrationResult converged = SelfCalibrate(material, WrongStart(), {});
+  ASSERT_TRUE(converged.usable) << converged.reason;
+  ASSERT_GT(converged.iterations, 4);
+  SelfCalibrationOptions options;
+  options.max_iterations = 2;
+  for (const double leave_out_ratio : {options.max_point_rms_ratio, 0.0}) {
+    options.max_point_rms_ratio = leave_out_ratio;  // With the second pass and without.
+    const SelfCalibrationResult cut = SelfCalibrate(material, WrongStart(), options);
+    EXPECT_FALSE(cut.usable) << leave_out_ratio;
+    EXPECT_NE(cut.reason.find("no update: the solve did not converge in 2 iterations (the cost "
+                              "still falling "),
+              std::string::npos)
+        << cut.reason;
+    EXPECT_EQ(cut.estimate, WrongStart()) << "no update leaves the calibration alone";
+  }
+}
+
 TEST(SelfCalibration, TooFewTracksGiveNoUpdate) {
   CalibrationMaterial material;
   material.frame_count = 10;
