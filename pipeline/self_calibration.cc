@@ -660,24 +660,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   // residuals are still uneven and good points would be left out.
   const bool leave_out = options.max_point_rms_ratio > 0;
   if (leave_out && structure.from_start) solver_options.function_tolerance = 1e-2;
-  // A last pass still descending when its iterations run out has been crawling along a
-  // valley the material leaves nearly flat (the ground alone, seen to the horizon with the
-  // facades' feet among its tracks: docs/calibration.md, "Outdoors"). Where it stopped
-  // is arbitrary; taken on, such solves raised false jump alarms on a steady lens.
-  const auto not_converged = [&] {
-    const std::vector<ceres::IterationSummary>& steps = summary.iterations;
-    const size_t last = steps.size() - 1, before = last - std::min<size_t>(last, 10);
-    const double fall_per_step = (steps[before].cost - steps[last].cost) / steps[before].cost /
-                                 double(std::max<size_t>(1, last - before));
-    std::ostringstream why;
-    why.precision(3);
-    why << "the solve did not converge in " << options.max_iterations
-        << " iterations (the cost still falling " << 100 * fall_per_step << "% an iteration)";
-    return no_update(why.str());
-  };
   ceres::Solve(solver_options, &problem, &summary);
   if (!summary.IsSolutionUsable()) return no_update("the solver failed: " + summary.BriefReport());
-  if (!leave_out && summary.termination_type == ceres::NO_CONVERGENCE) return not_converged();
   result.iterations = int(summary.iterations.size()) - 1;
   const auto copy_out = [&] {
     std::copy_n(intrinsics_block, kNumIntrinsics, intrinsics.begin());
@@ -770,9 +754,24 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     if (!summary.IsSolutionUsable()) {
       return no_update("the solver failed: " + summary.BriefReport());
     }
-    if (summary.termination_type == ceres::NO_CONVERGENCE) return not_converged();
     result.iterations += int(summary.iterations.size()) - 1;
     copy_out();
+  }
+  // The last pass still descending when its iterations ran out has been crawling along a
+  // valley the material leaves nearly flat (the ground alone, seen to the horizon with the
+  // facades' feet among its tracks: docs/calibration.md, "Outdoors"). Where it stopped is
+  // arbitrary; taken on, such solves raised false jump alarms on a steady lens.
+  if (summary.termination_type == ceres::NO_CONVERGENCE) {
+    const std::vector<ceres::IterationSummary>& steps = summary.iterations;
+    const size_t span = std::min<size_t>(steps.size() - 1, 10);  // Its last ten iterations.
+    const double before = steps[steps.size() - 1 - span].cost;
+    const double fall_per_step =
+        (before - steps.back().cost) / before / double(std::max<size_t>(span, 1));
+    std::ostringstream why;
+    why.precision(3);
+    why << "the solve did not converge in " << options.max_iterations
+        << " iterations (the cost still falling " << 100 * fall_per_step << "% an iteration)";
+    return no_update(why.str());
   }
 
   const CameraIntrinsics estimate =
