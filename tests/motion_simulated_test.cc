@@ -101,7 +101,7 @@ WalkRun RunWalk(const std::string& scenario_name, const std::string& lens, doubl
   const std::shared_ptr<const Scene> scene = BuildScene(scenario);
   int floor_id = 0;
   for (const Plane& p : scene->planes) {
-    if (p.name == "floor") floor_id = p.id;
+    if (p.name == "floor" || p.name == "ground") floor_id = p.id;
   }
 
   MotionStage stage;
@@ -249,6 +249,21 @@ TEST(MotionSimulated, OfficeWalk) {
 
 TEST(MotionSimulated, CorridorWalk) {
   ExpectGood(RunWalk("corridor", "tessar", 10.0, "320x240", true));
+}
+
+// Outdoors the ground is the plane box 10 leans on, seen to the horizon under facades 18 m
+// and more away, which never fill 20% of the image. The ground's plane must hold the
+// ground's tracks, not the facades' feet (measured: purity 0.973, the ground found in
+// every frame; at 640x480 purity 0.993, 0-6 of the ground plane's 100-180 tracks on a
+// facade, its normal within 0.6 deg of the truth once voted, the far facades' 16 deg off
+// at the median).
+TEST(MotionSimulated, OutdoorWalkGroundHoldsTheGround) {
+  const WalkRun run = RunWalk("outdoor", "sonnar", 10.0, "320x240", true);
+  EXPECT_GE(run.Purity(), 0.95);
+  EXPECT_GT(run.big_floor_frames, 100);
+  EXPECT_EQ(run.floor_found, run.big_floor_frames)
+      << "frames with the ground over 20% but no plane on it";
+  EXPECT_GE(run.Stability(), 0.9);
 }
 
 // The raw image through a strong barrel, tracks undistorted with the lens for box 6. Its

@@ -571,6 +571,41 @@ TEST(SelfCalibration, RotationAboutTheOpticalAxisGivesNoUpdate) {
   EXPECT_NE(result.reason.find("not observable"), std::string::npos) << result.reason;
 }
 
+// The outdoor walk's ground alone, seen to the horizon (points 1-40 m ahead, the camera
+// 1.4 m up and pitched 10 deg down, looking 15 deg left and right, nodding 6 deg with the
+// gait): its normal hardly tilts in the views, yet from a start 2% off the plane pins the
+// intrinsics (measured fx +0.18%, fy -0.29%; within 0.3% without nodding or with 15
+// deg of it). So the simulated walk's ground-only windows, 1.3-10% off in fy, are let down
+// by their tracks, not by this geometry (docs/calibration.md, "Outdoors").
+TEST(SelfCalibration, GroundAloneSeenToTheHorizonFixesTheIntrinsics) {
+  cv::RNG rng(8);
+  Room ground;
+  ground.planes.resize(1);
+  for (int i = 0; i < 300; ++i) {
+    ground.planes[0].emplace_back(rng.uniform(1.0, 40.0), rng.uniform(-8.0, 8.0), 0.0);
+  }
+  const auto walking = [](double f) {
+    return CamFromWorld({0.04 * f, 0.3 * std::sin(f / 9), 1.4}, 15 * std::sin(f / 6),
+                        10 + 6 * std::sin(f / 5), 3 * std::sin(f / 4));
+  };
+  const CameraIntrinsics truth = test::SonnarLikeCamera();
+  CameraIntrinsics start = truth;
+  start.fx *= 1.02;
+  start.fy *= 1.02;
+  start.cx += 5.0;
+  const SelfCalibrationResult result =
+      SelfCalibrate(Observe(ground, Walk(walking, 30), truth, 0.2, rng), start, {});
+  ASSERT_TRUE(result.usable) << result.reason;
+  std::printf("ground alone: fx %+.2f%% fy %+.2f%% cx %+.2f cy %+.2f px\n",
+              100 * (result.estimate.fx / truth.fx - 1), 100 * (result.estimate.fy / truth.fy - 1),
+              result.estimate.cx - truth.cx, result.estimate.cy - truth.cy);
+  EXPECT_EQ(result.planes_used, 1);
+  EXPECT_NEAR(result.estimate.fx, truth.fx, 0.005 * truth.fx);
+  EXPECT_NEAR(result.estimate.fy, truth.fy, 0.005 * truth.fy);
+  EXPECT_NEAR(result.estimate.cx, truth.cx, 2.0);
+  EXPECT_NEAR(result.estimate.cy, truth.cy, 2.0);
+}
+
 // A solve still descending when its iterations run out stopped somewhere arbitrary along
 // its way (outdoors, a valley the ground alone leaves nearly flat): no update. Here the
 // same window converges with the iterations it needs and is cut short with two.
