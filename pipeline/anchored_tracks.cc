@@ -16,6 +16,10 @@ bool AnchorOptions::Check(std::string* error) const {
     why << "window_px must be odd and at least 5";
   } else if (!(max_shift_px > 0)) {
     why << "max_shift_px must be positive";
+  } else if (!(off_plane_px >= 0)) {
+    why << "off_plane_px must not be negative";
+  } else if (!(off_plane_ratio >= 1)) {
+    why << "off_plane_ratio must be at least 1";
   } else if (!(min_correlation > -1 && min_correlation < 1)) {
     why << "min_correlation must be between -1 and 1";
   } else if (max_iterations < 1) {
@@ -104,10 +108,11 @@ std::optional<AnchoredTracks::Anchor> AnchoredTracks::Take(const DominantPlane& 
   return anchor;
 }
 
-std::optional<cv::Point2f> AnchoredTracks::Align(const Anchor& anchor, const DominantPlane& plane,
-                                                 const cv::Mat& image,
-                                                 const CameraIntrinsics& camera,
-                                                 cv::Point2f start) {
+std::optional<AnchoredTracks::Aligned> AnchoredTracks::Align(const Anchor& anchor,
+                                                             const DominantPlane& plane,
+                                                             const cv::Mat& image,
+                                                             const CameraIntrinsics& camera,
+                                                             cv::Point2f start) {
   const int r = options_.window_px / 2;
   if (!Inside(image, start, r + options_.max_shift_px + 2)) return std::nullopt;
 
@@ -187,13 +192,16 @@ std::optional<cv::Point2f> AnchoredTracks::Align(const Anchor& anchor, const Dom
   if ((AsArray(current_) * model).mean() < options_.min_correlation) {
     return std::nullopt;
   }
-  return at;
+  const Eigen::Vector2d on_plane =
+      Project(camera, Eigen::Vector3d((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy, 1.0));
+  return Aligned{at, std::hypot(at.x - on_plane.x(), at.y - on_plane.y())};
 }
 
 std::vector<std::optional<cv::Point2f>> AnchoredTracks::Measure(const DominantPlane& plane,
                                                                 const cv::Mat& image,
                                                                 const CameraIntrinsics& camera) {
   std::vector<std::optional<cv::Point2f>> measured(plane.track_ids.size());
+  std::vector<std::pair<size_t, double>> off_plane;  // Aligned tracks: (index, px off).
   for (size_t i = 0; i < plane.track_ids.size(); ++i) {
     const cv::Point2f tracked = plane.points[i];
     if (!options_.enabled) {
@@ -209,7 +217,10 @@ std::vector<std::optional<cv::Point2f>> AnchoredTracks::Measure(const DominantPl
         anchor.reference_t_ns = plane.reference_t_ns;
       }
       if (anchor.reference_t_ns == plane.reference_t_ns) {
-        measured[i] = Align(anchor, plane, image, camera, tracked);
+        if (const auto aligned = Align(anchor, plane, image, camera, tracked)) {
+          measured[i] = aligned->at;
+          off_plane.emplace_back(i, aligned->off_plane_px);
+        }
         continue;
       }
     }
@@ -220,6 +231,16 @@ std::vector<std::optional<cv::Point2f>> AnchoredTracks::Measure(const DominantPl
       measured[i] = tracked;
     } else {
       anchors_.erase(plane.track_ids[i]);
+    }
+  }
+  if (options_.off_plane_px > 0 && !off_plane.empty()) {
+    std::vector<double> distances;
+    for (const auto& [i, px] : off_plane) distances.push_back(px);
+    std::nth_element(distances.begin(), distances.begin() + distances.size() / 2, distances.end());
+    const double limit =
+        std::max(options_.off_plane_px, options_.off_plane_ratio * distances[distances.size() / 2]);
+    for (const auto& [i, px] : off_plane) {
+      if (px > limit) measured[i].reset();
     }
   }
   return measured;

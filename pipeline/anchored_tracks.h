@@ -29,6 +29,15 @@ struct AnchorOptions {
   double max_shift_px = 3.0;
   // Zero-mean normalized correlation of the aligned patch with its warped anchor, at least.
   double min_correlation = 0.8;
+  // Nor is a point measured that lies off its plane: farther from where the plane's
+  // homography carries its anchor than off_plane_ratio times the plane's median point in
+  // this view, and than off_plane_px (0: no such test). Outdoors the ground's plane holds
+  // facade tracks by their feet, where parallax over box 6's baselines cannot yet tell them
+  // from the ground; far and slow, they live longest, and made 10-12% of box 10's ground
+  // observations, 2 px RMS off the ground. A plane's own homography may be worse than a
+  // pixel (box 6 follows it on drifting tracks), hence the median.
+  double off_plane_px = 1.0;
+  double off_plane_ratio = 3.0;
   int max_iterations = 15;   // Gauss-Newton steps per alignment...
   double epsilon_px = 0.01;  // ...or until a step is shorter than this.
 
@@ -64,9 +73,15 @@ class AnchoredTracks {
   };
   std::optional<Anchor> Take(const DominantPlane& plane, const cv::Mat& image,
                              const CameraIntrinsics& camera, cv::Point2f pixel) const;
-  std::optional<cv::Point2f> Align(const Anchor& anchor, const DominantPlane& plane,
-                                   const cv::Mat& image, const CameraIntrinsics& camera,
-                                   cv::Point2f start);
+  // The anchor aligned with `image` near `start`, and how far (px) that lies from where the
+  // plane's homography carries the anchor.
+  struct Aligned {
+    cv::Point2f at;
+    double off_plane_px = 0.0;
+  };
+  std::optional<Aligned> Align(const Anchor& anchor, const DominantPlane& plane,
+                               const cv::Mat& image, const CameraIntrinsics& camera,
+                               cv::Point2f start);
 
   AnchorOptions options_;
   std::map<int, Anchor> anchors_;                             // By track id.

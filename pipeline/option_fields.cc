@@ -428,6 +428,13 @@ std::vector<OptionField> MakeFields() {
       Field<double>("material.anchor.max_shift_px", 0.01, 100,
                     "an aligned track this far from the tracker's position is not measured (px)",
                     &P::material, &Mat::anchor, &Anc::max_shift_px),
+      Field<double>("material.anchor.off_plane_px", 0, 100,
+                    "...nor one off its plane: this far (px; 0: any) from where the plane's "
+                    "homography carries its anchor,",
+                    &P::material, &Mat::anchor, &Anc::off_plane_px),
+      Field<double>("material.anchor.off_plane_ratio", 1, 100,
+                    "...and this many times the plane's median point",
+                    &P::material, &Mat::anchor, &Anc::off_plane_ratio),
       Field<double>("material.anchor.min_correlation", -0.99, 0.99,
                     "...nor one correlating less with its warped anchor patch", &P::material,
                     &Mat::anchor, &Anc::min_correlation),

@@ -58,6 +58,27 @@ CameraIntrinsics Pinhole() {
 
 int64_t FrameTime(int k) { return 1'000'000'000 + k * 33'333'333LL; }
 
+// A plane followed from frame 0 whose tracks lie on a 20 px grid over the image.
+DominantPlane GridPlane(int id) {
+  DominantPlane plane;
+  plane.id = id;
+  plane.reference_t_ns = FrameTime(0);
+  for (int y = 40; y <= 200; y += 20) {
+    for (int x = 40; x <= 280; x += 20) {
+      plane.track_ids.push_back(int(plane.points.size()));
+      plane.points.emplace_back(float(x), float(y));
+    }
+  }
+  return plane;
+}
+
+// Anchors taken on `plane`'s tracks in frame 0.
+AnchoredTracks AnchoredAtStart(const AnchorOptions& options, const DominantPlane& plane) {
+  AnchoredTracks anchors(options);
+  anchors.Measure(plane, Zoomed(0), Pinhole());
+  return anchors;
+}
+
 double Median(std::vector<double> values) {
   if (values.empty()) return std::nan("");
   std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
@@ -131,6 +152,8 @@ TEST(AnchorOptions, DefaultsAreValidAndFaultsAreNamed) {
   };
   fails_on([](AnchorOptions* o) { o->window_px = 14; }, "window_px");
   fails_on([](AnchorOptions* o) { o->max_shift_px = 0; }, "max_shift_px");
+  fails_on([](AnchorOptions* o) { o->off_plane_px = -1; }, "off_plane_px");
+  fails_on([](AnchorOptions* o) { o->off_plane_ratio = 0.5; }, "off_plane_ratio");
   fails_on([](AnchorOptions* o) { o->min_correlation = 1; }, "min_correlation");
   fails_on([](AnchorOptions* o) { o->max_iterations = 0; }, "max_iterations");
   fails_on([](AnchorOptions* o) { o->epsilon_px = 0; }, "epsilon_px");
@@ -184,15 +207,7 @@ TEST(AnchoredTracks, ANewWindowSizeTakesTheAnchorsAgain) {
 // Part of the view is covered by unrelated texture: the points under it are not
 // measured, the others are, where the zoom put them.
 TEST(AnchoredTracks, APatchThatNoLongerMatchesIsNotMeasured) {
-  DominantPlane plane;
-  plane.id = 3;
-  plane.reference_t_ns = FrameTime(0);
-  for (int y = 40; y <= 200; y += 20) {
-    for (int x = 40; x <= 280; x += 20) {
-      plane.track_ids.push_back(int(plane.points.size()));
-      plane.points.emplace_back(float(x), float(y));
-    }
-  }
+  DominantPlane plane = GridPlane(3);
   const std::vector<cv::Point2f> at_start = plane.points;
   AnchoredTracks anchors;
   const auto first = anchors.Measure(plane, Zoomed(0), Pinhole());
@@ -237,6 +252,81 @@ TEST(AnchoredTracks, APatchThatNoLongerMatchesIsNotMeasured) {
   // Points on a grid, not on corners: some lie along an edge, placed less well.
   EXPECT_LT(Median(clear_errors), 0.1) << "median error, px";
   EXPECT_LT(*std::max_element(clear_errors.begin(), clear_errors.end()), 0.5) << "px";
+}
+
+// Part of the view moves 2 px more than the plane's homography says, as something nearer
+// or farther than the plane would (a facade's foot held by the ground's plane): its points
+// match their anchors there but are not measured, being off the plane; with the check off
+// they are, where they moved. The other points are measured where the zoom put them.
+TEST(AnchoredTracks, PointsMovingOffThePlanesHomographyAreNotMeasured) {
+  const std::vector<cv::Point2f> at_start = GridPlane(5).points;
+  const int k = 6;
+  const cv::Rect off_plane(150, 50, 120, 120);
+  const cv::Point2f parallax(2.0f, 0.0f);
+  cv::Mat frame = Zoomed(k);
+  Zoomed(k)(off_plane - cv::Point(int(parallax.x), int(parallax.y))).copyTo(frame(off_plane));
+  const int margin = AnchorOptions().window_px / 2 + 4;
+  const cv::Rect inside(off_plane.x + margin, off_plane.y + margin,
+                        off_plane.width - 2 * margin, off_plane.height - 2 * margin);
+  const cv::Rect around(off_plane.x - margin, off_plane.y - margin,
+                        off_plane.width + 2 * margin, off_plane.height + 2 * margin);
+
+  for (const double off_plane_px : {AnchorOptions().off_plane_px, 0.0}) {
+    AnchorOptions options;
+    options.off_plane_px = off_plane_px;
+    DominantPlane plane = GridPlane(5);
+    AnchoredTracks anchors = AnchoredAtStart(options, plane);
+    plane.homography = ZoomBetween(0, k);
+    int moved = 0, clear = 0;
+    std::vector<double> moved_errors, clear_errors;
+    for (size_t i = 0; i < at_start.size(); ++i) {
+      const cv::Point2f truth = Truth(at_start[i], 0, k);
+      plane.points[i] = inside.contains(truth) ? truth + parallax : truth;
+    }
+    const auto measured = anchors.Measure(plane, frame, Pinhole());
+    for (size_t i = 0; i < at_start.size(); ++i) {
+      const cv::Point2f truth = Truth(at_start[i], 0, k);
+      if (inside.contains(truth)) {
+        ++moved;
+        if (measured[i]) moved_errors.push_back(cv::norm(*measured[i] - (truth + parallax)));
+      } else if (!around.contains(truth) && truth.x > 12 && truth.y > 12 && truth.x < 307 &&
+                 truth.y < 227) {
+        ++clear;
+        if (measured[i]) clear_errors.push_back(cv::norm(*measured[i] - truth));
+      }
+    }
+    ASSERT_GT(moved, 5);
+    if (off_plane_px > 0) {
+      EXPECT_EQ(moved_errors.size(), 0u) << "of " << moved << " points off the plane";
+    } else {
+      EXPECT_GT(moved_errors.size(), 0.9 * moved) << "of " << moved << " points, unchecked";
+      EXPECT_LT(Median(moved_errors), 0.1) << "median error from where they moved, px";
+    }
+    EXPECT_GT(clear_errors.size(), 0.9 * clear) << "of " << clear << " points on the plane";
+    EXPECT_LT(Median(clear_errors), 0.1) << "median error, px";
+  }
+}
+
+// Box 6 follows a plane's homography on drifting tracks, so it may be off by more than a
+// pixel over the whole plane: its points are then judged against the plane's median, and
+// stay measured (against a fixed pixel limit, half of them would go).
+TEST(AnchoredTracks, APlaneWhoseHomographyIsOffKeepsItsPoints) {
+  const int k = 6;
+  const cv::Matx33d homography_off = cv::Matx33d(1, 0, 1.5, 0, 1, 0, 0, 0, 1) * ZoomBetween(0, k);
+  const auto measured_fraction = [&](double ratio) {
+    AnchorOptions options;
+    options.off_plane_ratio = ratio;
+    DominantPlane plane = GridPlane(6);
+    AnchoredTracks anchors = AnchoredAtStart(options, plane);
+    plane.homography = homography_off;
+    for (cv::Point2f& point : plane.points) point = Truth(point, 0, k);
+    const auto measured = anchors.Measure(plane, Zoomed(k), Pinhole());
+    return double(std::count_if(measured.begin(), measured.end(),
+                                [](const auto& m) { return m.has_value(); })) /
+           double(measured.size());
+  };
+  EXPECT_GT(measured_fraction(AnchorOptions().off_plane_ratio), 0.9);
+  EXPECT_LT(measured_fraction(1.0), 0.7) << "against the median alone, about half go";
 }
 
 }  // namespace
