@@ -16,8 +16,8 @@ bool AnchorOptions::Check(std::string* error) const {
     why << "window_px must be odd and at least 5";
   } else if (!(max_shift_px > 0)) {
     why << "max_shift_px must be positive";
-  } else if (!(off_plane_px >= 0)) {
-    why << "off_plane_px must not be negative";
+  } else if (!(off_plane_fraction >= 0)) {
+    why << "off_plane_fraction must not be negative";
   } else if (!(off_plane_ratio >= 1)) {
     why << "off_plane_ratio must be at least 1";
   } else if (!(min_correlation > -1 && min_correlation < 1)) {
@@ -233,12 +233,12 @@ std::vector<std::optional<cv::Point2f>> AnchoredTracks::Measure(const DominantPl
       anchors_.erase(plane.track_ids[i]);
     }
   }
-  if (options_.off_plane_px > 0 && !off_plane.empty()) {
+  if (options_.off_plane_fraction > 0 && !off_plane.empty()) {
     std::vector<double> distances;
     for (const auto& [i, px] : off_plane) distances.push_back(px);
     std::nth_element(distances.begin(), distances.begin() + distances.size() / 2, distances.end());
-    const double limit =
-        std::max(options_.off_plane_px, options_.off_plane_ratio * distances[distances.size() / 2]);
+    const double limit = std::max(options_.off_plane_fraction * std::hypot(image.cols, image.rows),
+                                  options_.off_plane_ratio * distances[distances.size() / 2]);
     for (const auto& [i, px] : off_plane) {
       if (px > limit) measured[i].reset();
     }

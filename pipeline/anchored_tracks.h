@@ -31,12 +31,13 @@ struct AnchorOptions {
   double min_correlation = 0.8;
   // Nor is a point measured that lies off its plane: farther from where the plane's
   // homography carries its anchor than off_plane_ratio times the plane's median point in
-  // this view, and than off_plane_px (0: no such test). Outdoors the ground's plane holds
-  // facade tracks by their feet, where parallax over box 6's baselines cannot yet tell them
-  // from the ground; far and slow, they live longest, and made 10-12% of box 10's ground
-  // observations, 2 px RMS off the ground. A plane's own homography may be worse than a
-  // pixel (box 6 follows it on drifting tracks), hence the median.
-  double off_plane_px = 1.0;
+  // this view, and than off_plane_fraction of the image's diagonal (1 px at 640x480; 0: no
+  // such test). Outdoors the ground's plane holds facade tracks by their feet, where
+  // parallax over box 6's baselines cannot yet tell them from the ground; far and slow,
+  // they live longest, and made 10-12% of box 10's ground observations, 2 px RMS off the
+  // ground at 640x480. Parallax scales with the image, hence the diagonal; a plane's own
+  // homography may be off by more (box 6 follows it on drifting tracks), hence the median.
+  double off_plane_fraction = 0.00125;
   double off_plane_ratio = 3.0;
   int max_iterations = 15;   // Gauss-Newton steps per alignment...
   double epsilon_px = 0.01;  // ...or until a step is shorter than this.

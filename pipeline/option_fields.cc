@@ -428,10 +428,10 @@ std::vector<OptionField> MakeFields() {
       Field<double>("material.anchor.max_shift_px", 0.01, 100,
                     "an aligned track this far from the tracker's position is not measured (px)",
                     &P::material, &Mat::anchor, &Anc::max_shift_px),
-      Field<double>("material.anchor.off_plane_px", 0, 100,
-                    "...nor one off its plane: this far (px; 0: any) from where the plane's "
-                    "homography carries its anchor,",
-                    &P::material, &Mat::anchor, &Anc::off_plane_px),
+      Field<double>("material.anchor.off_plane_fraction", 0, 1,
+                    "...nor one off its plane: this far from where the plane's homography "
+                    "carries its anchor (of the image diagonal; 0: any),",
+                    &P::material, &Mat::anchor, &Anc::off_plane_fraction),
       Field<double>("material.anchor.off_plane_ratio", 1, 100,
                     "...and this many times the plane's median point",
                     &P::material, &Mat::anchor, &Anc::off_plane_ratio),

@@ -152,7 +152,7 @@ TEST(AnchorOptions, DefaultsAreValidAndFaultsAreNamed) {
   };
   fails_on([](AnchorOptions* o) { o->window_px = 14; }, "window_px");
   fails_on([](AnchorOptions* o) { o->max_shift_px = 0; }, "max_shift_px");
-  fails_on([](AnchorOptions* o) { o->off_plane_px = -1; }, "off_plane_px");
+  fails_on([](AnchorOptions* o) { o->off_plane_fraction = -1; }, "off_plane_fraction");
   fails_on([](AnchorOptions* o) { o->off_plane_ratio = 0.5; }, "off_plane_ratio");
   fails_on([](AnchorOptions* o) { o->min_correlation = 1; }, "min_correlation");
   fails_on([](AnchorOptions* o) { o->max_iterations = 0; }, "max_iterations");
@@ -271,9 +271,9 @@ TEST(AnchoredTracks, PointsMovingOffThePlanesHomographyAreNotMeasured) {
   const cv::Rect around(off_plane.x - margin, off_plane.y - margin,
                         off_plane.width + 2 * margin, off_plane.height + 2 * margin);
 
-  for (const double off_plane_px : {AnchorOptions().off_plane_px, 0.0}) {
+  for (const double off_plane_fraction : {AnchorOptions().off_plane_fraction, 0.0}) {
     AnchorOptions options;
-    options.off_plane_px = off_plane_px;
+    options.off_plane_fraction = off_plane_fraction;
     DominantPlane plane = GridPlane(5);
     AnchoredTracks anchors = AnchoredAtStart(options, plane);
     plane.homography = ZoomBetween(0, k);
@@ -296,7 +296,7 @@ TEST(AnchoredTracks, PointsMovingOffThePlanesHomographyAreNotMeasured) {
       }
     }
     ASSERT_GT(moved, 5);
-    if (off_plane_px > 0) {
+    if (off_plane_fraction > 0) {
       EXPECT_EQ(moved_errors.size(), 0u) << "of " << moved << " points off the plane";
     } else {
       EXPECT_GT(moved_errors.size(), 0.9 * moved) << "of " << moved << " points, unchecked";
