@@ -51,9 +51,9 @@ class AnchoredTracks {
 
   // The raw pixels of `plane`'s member tracks in `image` (the image box 5 tracked, with
   // the plane's homography in undistorted pixels of `camera`), in the order of
-  // plane.track_ids; nothing for a track whose alignment failed. A track new to the
-  // plane, or whose plane has moved its reference frame since, is anchored here at the
-  // tracker's position.
+  // plane.track_ids; nothing for a track whose alignment failed or that lies off the
+  // plane (AnchorOptions::off_plane_fraction). A track new to the plane, or whose plane
+  // has moved its reference frame since, is anchored here at the tracker's position.
   std::vector<std::optional<cv::Point2f>> Measure(const DominantPlane& plane, const cv::Mat& image,
                                                   const CameraIntrinsics& camera);
   // Drops the anchors of tracks no plane holds any more; call after each view's Measure.
