@@ -607,8 +607,9 @@ TEST(SelfCalibration, GroundAloneSeenToTheHorizonFixesTheIntrinsics) {
 }
 
 // A solve still descending when its iterations run out stopped somewhere arbitrary along
-// its way (outdoors, a valley the ground alone leaves nearly flat): no update. Here the
-// same window converges with the iterations it needs and is cut short with two.
+// its way (outdoors, a nearly flat valley on ground-only windows that held facade tracks):
+// no update. Here the same window converges with the iterations it needs and is cut short
+// with two.
 TEST(SelfCalibration, SolveCutShortGivesNoUpdate) {
   cv::RNG rng(4);
   const Room room = MakeRoom(rng);
