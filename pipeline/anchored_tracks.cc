@@ -77,15 +77,20 @@ std::optional<float> Standardize(const cv::Mat& patch, float min_spread, cv::Mat
   return spread;
 }
 
-// Jacobian of the raw pixel with respect to the undistorted one (the camera matrix alone)
-// at `ideal`.
-cv::Matx22d RawFromIdeal(const CameraIntrinsics& camera, cv::Point2d ideal) {
+// The raw pixel of an undistorted one (the camera matrix alone), and the Jacobian of the
+// raw pixel with respect to the undistorted one there.
+struct RawOfIdeal {
+  cv::Point2d pixel;
+  cv::Matx22d jacobian;
+};
+RawOfIdeal RawFromIdeal(const CameraIntrinsics& camera, cv::Point2d ideal) {
   const auto packed = camera.Packed();
   double pixel[2], by_normalized[4];
   ProjectNormalized(packed.data(), (ideal.x - camera.cx) / camera.fx,
                     (ideal.y - camera.cy) / camera.fy, pixel, nullptr, by_normalized);
-  return {by_normalized[0] / camera.fx, by_normalized[1] / camera.fy, by_normalized[2] / camera.fx,
-          by_normalized[3] / camera.fy};
+  return {{pixel[0], pixel[1]},
+          {by_normalized[0] / camera.fx, by_normalized[1] / camera.fy,
+           by_normalized[2] / camera.fx, by_normalized[3] / camera.fy}};
 }
 
 }  // namespace
@@ -103,7 +108,7 @@ std::optional<AnchoredTracks::Anchor> AnchoredTracks::Take(const DominantPlane& 
   anchor.reference_t_ns = plane.reference_t_ns;
   anchor.reference_to_anchor = plane.homography;
   anchor.ideal = {ideal->x(), ideal->y()};
-  anchor.ideal_from_raw = RawFromIdeal(camera, anchor.ideal).inv();
+  anchor.ideal_from_raw = RawFromIdeal(camera, anchor.ideal).jacobian.inv();
   cv::getRectSubPix(image, cv::Size(2 * radius + 1, 2 * radius + 1), pixel, anchor.patch, CV_32F);
   return anchor;
 }
@@ -126,8 +131,9 @@ std::optional<AnchoredTracks::Aligned> AnchoredTracks::Align(const Anchor& ancho
   const cv::Matx22d homography_jacobian(
       (h(0, 0) - x * h(2, 0)) / carried[2], (h(0, 1) - x * h(2, 1)) / carried[2],
       (h(1, 0) - y * h(2, 0)) / carried[2], (h(1, 1) - y * h(2, 1)) / carried[2]);
+  const RawOfIdeal on_plane = RawFromIdeal(camera, {x, y});  // Where the plane puts it.
   const cv::Matx22d now_from_anchor =
-      RawFromIdeal(camera, {x, y}) * homography_jacobian * anchor.ideal_from_raw;
+      on_plane.jacobian * homography_jacobian * anchor.ideal_from_raw;
   const double det = cv::determinant(now_from_anchor);
   if (!(det > 0.25 && det < 4.0)) return std::nullopt;
   const cv::Matx22d anchor_from_now = now_from_anchor.inv();
@@ -192,9 +198,7 @@ std::optional<AnchoredTracks::Aligned> AnchoredTracks::Align(const Anchor& ancho
   if ((AsArray(current_) * model).mean() < options_.min_correlation) {
     return std::nullopt;
   }
-  const Eigen::Vector2d on_plane =
-      Project(camera, Eigen::Vector3d((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy, 1.0));
-  return Aligned{at, std::hypot(at.x - on_plane.x(), at.y - on_plane.y())};
+  return Aligned{at, std::hypot(at.x - on_plane.pixel.x, at.y - on_plane.pixel.y)};
 }
 
 std::vector<std::optional<cv::Point2f>> AnchoredTracks::Measure(const DominantPlane& plane,

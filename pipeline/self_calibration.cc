@@ -758,9 +758,9 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     copy_out();
   }
   // The last pass still descending when its iterations ran out has been crawling along a
-  // valley the material leaves nearly flat (the ground alone, seen to the horizon with the
-  // facades' feet among its tracks: docs/calibration.md, "Outdoors"). Where it stopped is
-  // arbitrary; taken on, such solves raised false jump alarms on a steady lens.
+  // valley the material leaves nearly flat (outdoors, the ground alone with facade tracks
+  // among its points, before box 9 left those out: docs/calibration.md, "Outdoors"). Where
+  // it stopped is arbitrary; taken on, such solves raised false jump alarms on a steady lens.
   if (summary.termination_type == ceres::NO_CONVERGENCE) {
     const std::vector<ceres::IterationSummary>& steps = summary.iterations;
     const size_t span = std::min<size_t>(steps.size() - 1, 10);  // Its last ten iterations.
