@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <set>
@@ -308,6 +309,39 @@ bool StructureFromStart(const CalibrationStart& start, const std::vector<const P
   return true;
 }
 
+// The two points that fix a plane's frame within the plane (its origin, and the direction
+// of its first axis): the one nearest the points' centroid, so that the plane tilts about
+// its middle, and the one farthest from that, so that a turn about the normal moves it
+// most. Taken by track order instead, the origin could lie at one end of a ground seen to
+// the horizon and the second point beside it: every solve then crawled along the valley
+// of tilting the plane about its end and turning it about its normal, the points following
+// on their arcs (the outdoor walk's windows: up to 100 iterations with the intrinsics held).
+template <typename Point>
+std::pair<int, int> GaugePoints(const std::map<int, Point>& points) {
+  const auto position = [](const Point& x) {
+    Eigen::Vector3d at = Eigen::Vector3d::Zero();
+    for (int i = 0; i < int(x.size()); ++i) at[i] = x[i];
+    return at;
+  };
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& [id, x] : points) centroid += position(x);
+  centroid /= double(points.size());
+  const auto farthest_from = [&](const Eigen::Vector3d& from, double sign) {
+    int best = points.begin()->first;
+    double best_distance = -std::numeric_limits<double>::infinity();
+    for (const auto& [id, x] : points) {
+      const double distance = sign * (position(x) - from).squaredNorm();
+      if (distance > best_distance) {
+        best = id;
+        best_distance = distance;
+      }
+    }
+    return best;
+  };
+  const int first = farthest_from(centroid, -1.0);
+  return {first, farthest_from(position(points.at(first)), 1.0)};
+}
+
 }  // namespace
 
 SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
@@ -454,6 +488,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   for (int f : posed) frame_poses[f] = FromIsometry(*structure.cam_from_world[f]);
   std::vector<Pose> plane_poses(tracks.size());
   std::vector<std::map<int, std::array<double, 2>>> plane_points(tracks.size());
+  std::vector<std::pair<int, int>> gauge(tracks.size());  // Per plane, GaugePoints' ids.
   struct Residual {
     int frame, plane, point;
     Eigen::Vector2d pixel;
@@ -469,9 +504,10 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     for (const auto& [id, x] : points) scatter += (x - centroid) * (x - centroid).transpose();
     const Eigen::Vector3d normal =
         Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
-    const Eigen::Vector3d origin =
-        points.begin()->second - normal.dot(points.begin()->second - centroid) * normal;
-    Eigen::Vector3d axis_u = std::next(points.begin())->second - origin;
+    gauge[p] = GaugePoints(points);
+    const Eigen::Vector3d& first = points.at(gauge[p].first);
+    const Eigen::Vector3d origin = first - normal.dot(first - centroid) * normal;
+    Eigen::Vector3d axis_u = points.at(gauge[p].second) - origin;
     axis_u = (axis_u - normal.dot(axis_u) * normal).normalized();
     Eigen::Isometry3d world_from_plane = Eigen::Isometry3d::Identity();
     world_from_plane.linear() << axis_u, normal.cross(axis_u), normal;
@@ -482,8 +518,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
       plane_points[p][id] = {local.x(), local.y()};
     }
     // Gauge: the first point is the plane's origin, the second lies on its first axis.
-    plane_points[p].begin()->second = {0.0, 0.0};
-    std::next(plane_points[p].begin())->second[1] = 0.0;
+    plane_points[p][gauge[p].first] = {0.0, 0.0};
+    plane_points[p][gauge[p].second][1] = 0.0;
     for (const auto& [id, seen] : tracks[p]) {
       if (!plane_points[p].count(id)) continue;
       for (const PlaneObservation& o : used[p]->observations) {
@@ -565,8 +601,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   }
   for (size_t p = 0; p < tracks.size(); ++p) {
     if (point_blocks[p].size() < 2) continue;
-    double* const first = point_blocks[p].begin()->second;
-    double* const second = std::next(point_blocks[p].begin())->second;
+    double* const first = point_blocks[p].at(gauge[p].first);
+    double* const second = point_blocks[p].at(gauge[p].second);
     // The points are eliminated, all but the second: with one coordinate held it has one
     // free parameter, and eliminated blocks of one size take Ceres' Schur eliminator
     // compiled for 2x2 blocks (3-5% off a solve) instead of the one for any size.
@@ -702,8 +738,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     std::set<int> frame_lost;  // Planes whose first or second point goes.
     for (size_t p = 0; p < plane_points.size(); ++p) {
       if (plane_points[p].size() < 2) continue;
-      const std::pair<int, int> first(int(p), plane_points[p].begin()->first);
-      const std::pair<int, int> second(int(p), std::next(plane_points[p].begin())->first);
+      const std::pair<int, int> first(int(p), gauge[p].first);
+      const std::pair<int, int> second(int(p), gauge[p].second);
       if (!left_out.count(first) && !left_out.count(second)) continue;
       if (staying[int(p)] >= 2) {
         frame_lost.insert(int(p));
@@ -719,16 +755,29 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
       plane_points[plane].erase(id);
     }
     for (const int plane : frame_lost) {
-      std::vector<double*> first_two;
-      for (const auto& [id, uv] : plane_points[plane]) {
-        double* const block = point_blocks[plane].at(id);
-        if (problem.HasParameterBlock(block)) first_two.push_back(block);
-        if (first_two.size() == 2) break;
+      // The one of the two that stays is freed, and two are chosen afresh among those that
+      // stay, held where they are: any place fixes the plane's frame, as (0, 0) and v = 0 did.
+      double* const old_first = point_blocks[plane].at(gauge[plane].first);
+      double* const old_second = point_blocks[plane].at(gauge[plane].second);
+      if (problem.HasParameterBlock(old_first)) {
+        // Ceres took it out of the ordering when the first pass found it constant.
+        problem.SetParameterBlockVariable(old_first);
+        ordering->AddElementToGroup(old_first, 0);
       }
-      // Held where they are: any place fixes the plane's frame, as (0, 0) and v = 0 did.
-      problem.SetParameterBlockConstant(first_two[0]);
-      problem.SetManifold(first_two[1], new ceres::SubsetManifold(2, {1}));
-      ordering->AddElementToGroup(first_two[1], 1);
+      if (problem.HasParameterBlock(old_second)) {
+        problem.SetManifold(old_second, nullptr);
+        ordering->AddElementToGroup(old_second, 0);
+      }
+      std::map<int, std::array<double, 2>> in_problem;
+      for (const auto& [id, uv] : plane_points[plane]) {
+        if (problem.HasParameterBlock(point_blocks[plane].at(id))) in_problem[id] = uv;
+      }
+      gauge[plane] = GaugePoints(in_problem);
+      double* const first = point_blocks[plane].at(gauge[plane].first);
+      double* const second = point_blocks[plane].at(gauge[plane].second);
+      problem.SetParameterBlockConstant(first);
+      problem.SetManifold(second, new ceres::SubsetManifold(2, {1}));
+      ordering->AddElementToGroup(second, 1);
     }
     std::erase_if(residuals, [&](const Residual& r) {
       return left_out.count({r.plane, r.point}) > 0;

@@ -3,6 +3,7 @@
 #include "tests/test_util.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -604,6 +605,54 @@ TEST(SelfCalibration, GroundAloneSeenToTheHorizonFixesTheIntrinsics) {
   EXPECT_NEAR(result.estimate.fy, truth.fy, 0.005 * truth.fy);
   EXPECT_NEAR(result.estimate.cx, truth.cx, 2.0);
   EXPECT_NEAR(result.estimate.cy, truth.cy, 2.0);
+}
+
+// Where a plane's frame is fixed must not matter: the same ground, its tracks numbered from
+// the horizon in and from the feet out, gives the same calibration in a few iterations.
+// With the frame fixed by the first two tracks in track order (the plane's origin and a
+// point beside it, both at the far end of the ground), each pass crawled along the valley
+// of tilting the plane about that end to its 100 iterations, and made no update.
+TEST(SelfCalibration, PlaneFrameFixedInTheMiddleOfItsPointsConvergesAlike) {
+  cv::RNG rng(8);
+  Room ground;
+  ground.planes.resize(1);
+  for (int i = 0; i < 300; ++i) {
+    ground.planes[0].emplace_back(rng.uniform(1.0, 40.0), rng.uniform(-8.0, 8.0), 0.0);
+  }
+  // Numbered from the point of the ground nearest the horizon ahead.
+  const Eigen::Vector3d horizon(40.0, 0.0, 0.0);
+  std::sort(ground.planes[0].begin(), ground.planes[0].end(),
+            [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+              return (a - horizon).norm() < (b - horizon).norm();
+            });
+  const auto walking = [](double f) {
+    return CamFromWorld({0.04 * f, 0.3 * std::sin(f / 9), 1.4}, 15 * std::sin(f / 6),
+                        10 + 6 * std::sin(f / 5), 3 * std::sin(f / 4));
+  };
+  const CameraIntrinsics truth = test::SonnarLikeCamera();
+  CameraIntrinsics start = truth;
+  start.fx *= 1.02;
+  start.fy *= 1.02;
+  const CalibrationMaterial from_horizon = Observe(ground, Walk(walking, 30), truth, 0.2, rng);
+  CalibrationMaterial from_feet = from_horizon;
+  for (PlaneObservation& o : from_feet.planes[0].observations) o.point = 299 - o.point;
+  std::vector<SelfCalibrationResult> results;
+  for (const CalibrationMaterial* material : std::array<const CalibrationMaterial*, 2>{&from_horizon, &from_feet}) {
+    results.push_back(SelfCalibrate(*material, start, {}));
+    const SelfCalibrationResult& result = results.back();
+    ASSERT_TRUE(result.usable) << result.reason;
+    std::printf("tracks numbered from the %s: fx %+.3f%% fy %+.3f%%, RMS %.6f px, %d iterations\n",
+                material == &from_horizon ? "horizon" : "feet",
+                100 * (result.estimate.fx / truth.fx - 1),
+                100 * (result.estimate.fy / truth.fy - 1), result.rms_px, result.iterations);
+    EXPECT_LE(result.iterations, 30);
+    EXPECT_NEAR(result.estimate.fx, truth.fx, 0.01 * truth.fx);
+    EXPECT_NEAR(result.estimate.fy, truth.fy, 0.01 * truth.fy);
+  }
+  // The same minimum: the valley is flat enough that the two stop 1e-4 apart in fy.
+  EXPECT_NEAR(results[0].rms_px, results[1].rms_px, 1e-4 * results[0].rms_px);
+  EXPECT_NEAR(results[0].estimate.fx, results[1].estimate.fx, 3e-4 * truth.fx);
+  EXPECT_NEAR(results[0].estimate.fy, results[1].estimate.fy, 3e-4 * truth.fy);
 }
 
 // A solve still descending when its iterations run out stopped somewhere arbitrary along
