@@ -731,13 +731,28 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
         ++staying[point.first];
       }
     }
+    // A plane left with fewer points than a plane needs to be used at all goes whole, all
+    // but the anchor, whose pose holds the scale: its pose would hang on the few that stay
+    // (on two, free to turn about the line through them), and the solve wandered (the
+    // office walk live at 640x480: planes left with 2-3 of 24-45 points, 86-100 iterations).
+    std::set<int> dropped;
+    for (size_t p = 1; p < plane_points.size(); ++p) {
+      if (!problem.HasParameterBlock(plane_blocks[p]) ||
+          staying[int(p)] >= options.min_points_per_plane) {
+        continue;
+      }
+      dropped.insert(int(p));
+      for (const auto& [id, block] : point_blocks[p]) {
+        if (problem.HasParameterBlock(block)) left_out.insert({int(p), id});
+      }
+    }
     // A plane whose points nearly all fit badly keeps the two that fix its frame. Where
     // enough stay, those two may go too, and the next two fix the frame: a track of a
     // filing cabinet held by the wall's plane, 110 times the median point's RMS, was the
     // plane's first point, stayed, and took the plane's board over the cabinet.
     std::set<int> frame_lost;  // Planes whose first or second point goes.
     for (size_t p = 0; p < plane_points.size(); ++p) {
-      if (plane_points[p].size() < 2) continue;
+      if (plane_points[p].size() < 2 || dropped.count(int(p))) continue;
       const std::pair<int, int> first(int(p), gauge[p].first);
       const std::pair<int, int> second(int(p), gauge[p].second);
       if (!left_out.count(first) && !left_out.count(second)) continue;
@@ -753,6 +768,11 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
       ordering->Remove(block);
       problem.RemoveParameterBlock(block);
       plane_points[plane].erase(id);
+    }
+    for (const int plane : dropped) {
+      ordering->Remove(plane_blocks[plane]);
+      problem.RemoveParameterBlock(plane_blocks[plane]);
+      --result.planes_used;
     }
     for (const int plane : frame_lost) {
       // The one of the two that stays is freed, and two are chosen afresh among those that

@@ -419,17 +419,26 @@ TEST(SelfCalibration, VirtualBoardSticksWithTheEstimateAndSlidesWithoutIt) {
 // hardly discounts. Box 10 leaves out the points that reproject far worse than the rest.
 // `ledge_first`: the points off the wall are the plane's first (lowest ids), two of which
 // fix the plane's frame in the solve.
-void ExpectPointsOffTheWallLeftOut(bool ledge_first) {
+void ExpectPointsOffTheWallLeftOut(bool one_in_the_middle) {
   cv::RNG rng(9);
   Room room = MakeRoom(rng);
   // Points on a ledge 0.3 m in front of the far wall, just under the ceiling, tracked as
-  // the wall's (plane 2).
+  // the wall's (plane 2); or one of them 0.3 m in front of the middle of the wall instead,
+  // with no wall point within 0.5 m of it, so that it is the point nearest the wall's
+  // points' centroid, which fixes the plane's frame.
   std::vector<Eigen::Vector3d> ledge;
   for (int i = 0; i < 12; ++i)
     ledge.emplace_back(5.7, rng.uniform(-3.0, 3.0), rng.uniform(2.4, 2.8));
   std::vector<Eigen::Vector3d>& wall = room.planes[1];
-  const int first_off = ledge_first ? 0 : int(wall.size());
-  wall.insert(ledge_first ? wall.begin() : wall.end(), ledge.begin(), ledge.end());
+  if (one_in_the_middle) {
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& x : wall) centroid += x / double(wall.size() + ledge.size());
+    for (const Eigen::Vector3d& x : ledge) centroid += x / double(wall.size() + ledge.size());
+    ledge[0] = Eigen::Vector3d(5.7, centroid.y(), centroid.z());
+    std::erase_if(wall, [&](const Eigen::Vector3d& x) { return (x - ledge[0]).norm() < 0.5; });
+  }
+  const int first_off = int(wall.size());
+  wall.insert(wall.end(), ledge.begin(), ledge.end());
   const auto off_wall = [&](int id) { return id >= first_off && id < first_off + 12; };
   const CameraIntrinsics truth = test::SonnarLikeCamera();
   const CalibrationMaterial material = Observe(room, Walk(LookingAbout, 40), truth, 0.2, rng);
@@ -459,10 +468,33 @@ void ExpectPointsOffTheWallLeftOut(bool ledge_first) {
 TEST(SelfCalibration, PointsOffTheirPlaneAreLeftOut) { ExpectPointsOffTheWallLeftOut(false); }
 
 // Box 6's wall plane on the office walk held a track of a filing cabinet in front of the
-// wall as its first point; kept to fix the plane's frame, it took the wall's board over
-// the cabinet.
+// wall as the point that fixed the plane's frame; kept for that, it took the wall's board
+// over the cabinet.
 TEST(SelfCalibration, PointsOffTheirPlaneAreLeftOutWhenTheyFixItsFrame) {
   ExpectPointsOffTheWallLeftOut(true);
+}
+
+// A plane left with fewer points than a plane needs once those that fit badly are out goes
+// whole: its pose would hang on the few that stay (on two, free to turn about the line
+// through them), and the solve wandered. Here the far wall has 10 points on it and 4 on a
+// ledge in front of it, 14 in all, enough to be used; without the ledge's, 10 are not.
+TEST(SelfCalibration, APlaneLeftWithTooFewPointsGoesWhole) {
+  cv::RNG rng(9);
+  Room room = MakeRoom(rng);
+  std::vector<Eigen::Vector3d>& wall = room.planes[1];
+  wall.resize(10);
+  for (int i = 0; i < 4; ++i) wall.emplace_back(5.7, rng.uniform(-3.0, 3.0), rng.uniform(2.4, 2.8));
+  const CameraIntrinsics truth = test::SonnarLikeCamera();
+  const CalibrationMaterial material = Observe(room, Walk(LookingAbout, 40), truth, 0.2, rng);
+  ASSERT_EQ(material.planes.size(), 3u);
+  const SelfCalibrationResult trimmed = SelfCalibrate(material, WrongStart(), {});
+  ASSERT_TRUE(trimmed.usable) << trimmed.reason;
+  std::printf("planes used %d of 3; fx %+.3f%%, %d iterations\n", trimmed.planes_used,
+              100 * (trimmed.estimate.fx / truth.fx - 1), trimmed.iterations);
+  EXPECT_EQ(trimmed.planes_used, 2);
+  EXPECT_EQ(trimmed.planes.size(), 2u);
+  for (const PlaneEstimate& plane : trimmed.planes) EXPECT_NE(plane.id, 2) << "the far wall";
+  EXPECT_NEAR(trimmed.estimate.fx, truth.fx, 0.005 * truth.fx);
 }
 
 // A world line that is not quite straight (the horizon over a corner of the ground, a
