@@ -313,9 +313,9 @@ bool StructureFromStart(const CalibrationStart& start, const std::vector<const P
 // of its first axis): the one nearest the points' centroid, so that the plane tilts about
 // its middle, and the one farthest from that, so that a turn about the normal moves it
 // most. Taken by track order instead, the origin could lie at one end of a ground seen to
-// the horizon and the second point beside it: every solve then crawled along the valley
-// of tilting the plane about its end and turning it about its normal, the points following
-// on their arcs (the outdoor walk's windows: up to 100 iterations with the intrinsics held).
+// the horizon, 35 units from the middle of its points: the solves then crawled along the
+// plane's tilt about that end, the points following on their arcs (the outdoor walk's
+// windows: 100 iterations and more, with the intrinsics held too).
 template <typename Point>
 std::pair<int, int> GaugePoints(const std::map<int, Point>& points) {
   const auto position = [](const Point& x) {
@@ -734,7 +734,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     // A plane left with fewer points than a plane needs to be used at all goes whole, all
     // but the anchor, whose pose holds the scale: its pose would hang on the few that stay
     // (on two, free to turn about the line through them), and the solve wandered (the
-    // office walk live at 640x480: planes left with 2-3 of 24-45 points, 86-100 iterations).
+    // office tessar walk at 640x480: planes left with 2 or 3 points, 86-100 iterations).
     std::set<int> dropped;
     for (size_t p = 1; p < plane_points.size(); ++p) {
       if (!problem.HasParameterBlock(plane_blocks[p]) ||
@@ -746,10 +746,11 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
         if (problem.HasParameterBlock(block)) left_out.insert({int(p), id});
       }
     }
-    // A plane whose points nearly all fit badly keeps the two that fix its frame. Where
-    // enough stay, those two may go too, and the next two fix the frame: a track of a
-    // filing cabinet held by the wall's plane, 110 times the median point's RMS, was the
-    // plane's first point, stayed, and took the plane's board over the cabinet.
+    // The anchor, if nearly all its points fit badly, keeps the two that fix its frame (any
+    // other plane left so bare went whole above). Where enough stay, those two may go too,
+    // and two are chosen afresh: a track of a filing cabinet held by the wall's plane, 110
+    // times the median point's RMS, once fixed the plane's frame, stayed, and took the
+    // plane's board over the cabinet.
     std::set<int> frame_lost;  // Planes whose first or second point goes.
     for (size_t p = 0; p < plane_points.size(); ++p) {
       if (plane_points[p].size() < 2 || dropped.count(int(p))) continue;

@@ -669,7 +669,8 @@ TEST(SelfCalibration, PlaneFrameFixedInTheMiddleOfItsPointsConvergesAlike) {
   CalibrationMaterial from_feet = from_horizon;
   for (PlaneObservation& o : from_feet.planes[0].observations) o.point = 299 - o.point;
   std::vector<SelfCalibrationResult> results;
-  for (const CalibrationMaterial* material : std::array<const CalibrationMaterial*, 2>{&from_horizon, &from_feet}) {
+  const std::array<const CalibrationMaterial*, 2> numberings = {&from_horizon, &from_feet};
+  for (const CalibrationMaterial* material : numberings) {
     results.push_back(SelfCalibrate(*material, start, {}));
     const SelfCalibrationResult& result = results.back();
     ASSERT_TRUE(result.usable) << result.reason;
