@@ -604,6 +604,23 @@ TEST(SelfCalibration, RotationAboutTheOpticalAxisGivesNoUpdate) {
   EXPECT_NE(result.reason.find("not observable"), std::string::npos) << result.reason;
 }
 
+// A ground 40 m deep and 16 m wide, with nothing else: the outdoor walk's ground-only
+// windows.
+Room GroundToTheHorizon(cv::RNG& rng) {
+  Room ground;
+  ground.planes.resize(1);
+  for (int i = 0; i < 300; ++i) {
+    ground.planes[0].emplace_back(rng.uniform(1.0, 40.0), rng.uniform(-8.0, 8.0), 0.0);
+  }
+  return ground;
+}
+
+// Walking over it, the camera 1.4 m up, looking about and nodding toward the horizon.
+Eigen::Isometry3d WalkingOnTheGround(double f) {
+  return CamFromWorld({0.04 * f, 0.3 * std::sin(f / 9), 1.4}, 15 * std::sin(f / 6),
+                      10 + 6 * std::sin(f / 5), 3 * std::sin(f / 4));
+}
+
 // The outdoor walk's ground alone, seen to the horizon (points 1-40 m ahead, the camera
 // 1.4 m up and pitched 10 deg down, looking 15 deg left and right, nodding 6 deg with the
 // gait): its normal hardly tilts in the views, yet from a start 2% off the plane pins the
@@ -612,22 +629,14 @@ TEST(SelfCalibration, RotationAboutTheOpticalAxisGivesNoUpdate) {
 // by their tracks, not by this geometry (docs/calibration.md, "Outdoors").
 TEST(SelfCalibration, GroundAloneSeenToTheHorizonFixesTheIntrinsics) {
   cv::RNG rng(8);
-  Room ground;
-  ground.planes.resize(1);
-  for (int i = 0; i < 300; ++i) {
-    ground.planes[0].emplace_back(rng.uniform(1.0, 40.0), rng.uniform(-8.0, 8.0), 0.0);
-  }
-  const auto walking = [](double f) {
-    return CamFromWorld({0.04 * f, 0.3 * std::sin(f / 9), 1.4}, 15 * std::sin(f / 6),
-                        10 + 6 * std::sin(f / 5), 3 * std::sin(f / 4));
-  };
+  const Room ground = GroundToTheHorizon(rng);
   const CameraIntrinsics truth = test::SonnarLikeCamera();
   CameraIntrinsics start = truth;
   start.fx *= 1.02;
   start.fy *= 1.02;
   start.cx += 5.0;
   const SelfCalibrationResult result =
-      SelfCalibrate(Observe(ground, Walk(walking, 30), truth, 0.2, rng), start, {});
+      SelfCalibrate(Observe(ground, Walk(WalkingOnTheGround, 30), truth, 0.2, rng), start, {});
   ASSERT_TRUE(result.usable) << result.reason;
   std::printf("ground alone: fx %+.2f%% fy %+.2f%% cx %+.2f cy %+.2f px\n",
               100 * (result.estimate.fx / truth.fx - 1), 100 * (result.estimate.fy / truth.fy - 1),
@@ -646,28 +655,22 @@ TEST(SelfCalibration, GroundAloneSeenToTheHorizonFixesTheIntrinsics) {
 // of tilting the plane about that end to its 100 iterations, and made no update.
 TEST(SelfCalibration, PlaneFrameFixedInTheMiddleOfItsPointsConvergesAlike) {
   cv::RNG rng(8);
-  Room ground;
-  ground.planes.resize(1);
-  for (int i = 0; i < 300; ++i) {
-    ground.planes[0].emplace_back(rng.uniform(1.0, 40.0), rng.uniform(-8.0, 8.0), 0.0);
-  }
+  Room ground = GroundToTheHorizon(rng);
   // Numbered from the point of the ground nearest the horizon ahead.
   const Eigen::Vector3d horizon(40.0, 0.0, 0.0);
   std::sort(ground.planes[0].begin(), ground.planes[0].end(),
             [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
               return (a - horizon).norm() < (b - horizon).norm();
             });
-  const auto walking = [](double f) {
-    return CamFromWorld({0.04 * f, 0.3 * std::sin(f / 9), 1.4}, 15 * std::sin(f / 6),
-                        10 + 6 * std::sin(f / 5), 3 * std::sin(f / 4));
-  };
   const CameraIntrinsics truth = test::SonnarLikeCamera();
   CameraIntrinsics start = truth;
   start.fx *= 1.02;
   start.fy *= 1.02;
-  const CalibrationMaterial from_horizon = Observe(ground, Walk(walking, 30), truth, 0.2, rng);
+  const CalibrationMaterial from_horizon =
+      Observe(ground, Walk(WalkingOnTheGround, 30), truth, 0.2, rng);
   CalibrationMaterial from_feet = from_horizon;
-  for (PlaneObservation& o : from_feet.planes[0].observations) o.point = 299 - o.point;
+  const int last = int(ground.planes[0].size()) - 1;
+  for (PlaneObservation& o : from_feet.planes[0].observations) o.point = last - o.point;
   std::vector<SelfCalibrationResult> results;
   const std::array<const CalibrationMaterial*, 2> numberings = {&from_horizon, &from_feet};
   for (const CalibrationMaterial* material : numberings) {
