@@ -156,6 +156,10 @@ int Bench(const QStringList& arguments) {
       {"resolution", "Frame size (default 640x480).", "WxH", "640x480"},
       {"seconds", "Seconds of recording (default 10).", "s", "10"},
       {"json", "Write the figures as JSON here too.", "file"},
+      {"history",
+       "Keep the history (every attempt, its verdict and solver report) in this SQLite file "
+       "instead of a temporary one: to see which attempts made the latency's tail.",
+       "file.sqlite"},
       {"judge-after",
        "Offline, judge each attempt this many frames after it is made (default " +
            QString::number(RuntimeOptions{}.judge_after_frames) + ", as autocal run; see "
@@ -211,6 +215,11 @@ int Bench(const QStringList& arguments) {
 
   try {
     const PipelineOptions pipeline = PipelineOptionsFrom(parser);  // Before the long rendering.
+    if (parser.isSet("history")) {  // So is a history that is not new.
+      RunSettings history;
+      history.history_path = parser.value("history").toStdString();
+      OpenNewHistory(history);
+    }
     Scenario scenario = ParseScenarioSpec(parser.value("scenario").toStdString());
     ApplyScenarioOverride(&scenario, "resolution", parser.value("resolution").toStdString());
     ApplyScenarioOverride(&scenario, "seconds",
@@ -234,7 +243,8 @@ int Bench(const QStringList& arguments) {
     if (!dir.isValid()) throw Error("cannot make a temporary folder for the history");
     RunSettings settings;
     settings.pipeline = pipeline;
-    settings.history_path = dir.filePath("history.sqlite").toStdString();
+    settings.history_path = parser.isSet("history") ? parser.value("history").toStdString()
+                                                    : dir.filePath("history.sqlite").toStdString();
     settings.runtime.judge_after_frames = judge_after;
     ProgressPrinter printer("bench", "frames");
     const double cpu_before_s = ProcessCpuSeconds();

@@ -403,7 +403,11 @@ void PlaneTracker::Merge(const Frame& frame) {
     for (size_t b = a + 1; b < states_.size();) {
       const std::vector<int> in_a = frame.Based(states_[a].members);
       const std::vector<int> in_b = frame.Based(states_[b].members);
-      bool merge = fitting(states_[a], in_b) >= options_.merge_fraction * in_b.size() ||
+      // Each homography must fit the other plane's tracks: a plane dwindled to a strip along
+      // a corner fits the next wall's homography (the strip lies on both), and merged into
+      // it, gave its id to the next wall (the office walk: box 10 then took the tracks of
+      // both walls for one plane).
+      bool merge = fitting(states_[a], in_b) >= options_.merge_fraction * in_b.size() &&
                    fitting(states_[b], in_a) >= options_.merge_fraction * in_a.size();
       if (merge) {
         // One homography for both, or two planes after all.

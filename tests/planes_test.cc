@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <random>
 #include <set>
@@ -174,35 +175,26 @@ TEST(DecomposePlaneHomography, RecoversTheTrueMotionAndNormal) {
   EXPECT_LT((best->translation_over_distance - translation / distance).norm(), 1e-6);
 }
 
-// Tracks of points on a floor and a wall seen by a camera walking toward the wall, with
-// a little sway and yaw: positions measured with noise, tracks ending where points leave
-// the view. From `stop_s` on the camera stands and only turns.
-class SyntheticWalk {
+// Tracks of world points seen by a moving camera at 30 frames a second: positions measured
+// with noise, tracks ending where points leave the view or their frames of texture end.
+class SyntheticTracks {
  public:
-  explicit SyntheticWalk(double speed_mps, double stop_s = kNever)
-      : speed_(speed_mps), stop_s_(stop_s), camera_(TestCamera()) {
-    std::mt19937 rng(7);
-    std::uniform_real_distribution<double> across(-2.0, 2.0), along(1.0, 6.0), up(0.0, 2.5);
-    // World: camera axes at time 0 (x right, y down, z forward), floor at y = 1.4,
-    // wall at z = 6.
-    for (int i = 0; i < 500; ++i) points_.push_back({{across(rng), 1.4, along(rng)}, 1});
-    for (int i = 0; i < 500; ++i) points_.push_back({{across(rng), 1.4 - up(rng), 6.0}, 2});
-  }
+  virtual ~SyntheticTracks() = default;
 
   // Advances to frame `k` and returns the live tracks.
   const std::vector<Track>& Frame(int k) {
     const double t = k / 30.0;
     const Eigen::Matrix3d world_from_cam = WorldFromCam(t);
-    const double moving = std::min(t, stop_s_);
-    const Eigen::Vector3d position(0.1 * std::sin(2.0 * moving), 0.02 * std::sin(11.0 * moving),
-                                   speed_ * moving);
+    const Eigen::Vector3d position = Position(t);
     std::normal_distribution<double> noise(0.0, 0.1);
     std::vector<Track> live;
     for (size_t i = 0; i < points_.size(); ++i) {
-      const Eigen::Vector3d p = world_from_cam.transpose() * (points_[i].world - position);
+      const Point& point = points_[i];
+      const Eigen::Vector3d p = world_from_cam.transpose() * (point.world - position);
       const Eigen::Vector2d pixel = Pixel(camera_, p);
-      const bool visible = p.z() > 0.1 && pixel.x() > 5 && pixel.y() > 5 &&
-                           pixel.x() < camera_.width - 5 && pixel.y() < camera_.height - 5;
+      const bool visible = k >= point.first_frame && k <= point.last_frame && p.z() > 0.1 &&
+                           pixel.x() > 5 && pixel.y() > 5 && pixel.x() < camera_.width - 5 &&
+                           pixel.y() < camera_.height - 5;
       auto it = std::find_if(tracks_.begin(), tracks_.end(),
                              [&](const Track& tr) { return tr.id == int(i) + 1; });
       if (!visible || (it == tracks_.end() && ended_.count(int(i) + 1))) {
@@ -221,27 +213,111 @@ class SyntheticWalk {
   }
 
   static int64_t Time(int k) { return 1'000'000'000 + k * 33'333'333LL; }
-  Eigen::Matrix3d WorldFromCam(double t) const {
-    return Eigen::AngleAxisd(0.08 * std::sin(1.5 * t), Eigen::Vector3d::UnitY()).toRotationMatrix();
-  }
-  // Which true plane (1 floor, 2 wall) a track's point lies on.
+  virtual Eigen::Matrix3d WorldFromCam(double t) const = 0;
+  virtual Eigen::Vector3d Position(double t) const = 0;
+  // Which true plane a track's point lies on.
   int PlaneOf(int track_id) const { return points_[track_id - 1].plane; }
   const CameraIntrinsics& camera() const { return camera_; }
 
- private:
+ protected:
   struct Point {
     Eigen::Vector3d world;
     int plane;
+    int first_frame = 0, last_frame = std::numeric_limits<int>::max();  // Textured then.
   };
-  static constexpr double kNever = 1e9;
-  double speed_;
-  double stop_s_;
-  CameraIntrinsics camera_;
   std::vector<Point> points_;
+
+ private:
+  CameraIntrinsics camera_ = TestCamera();
   std::vector<Track> tracks_;
   std::set<int> ended_;
   std::mt19937 rng_{11};
 };
+
+// A floor and a wall seen by a camera walking toward the wall, with a little sway and yaw.
+// From `stop_s` on the camera stands and only turns.
+class SyntheticWalk : public SyntheticTracks {
+ public:
+  explicit SyntheticWalk(double speed_mps, double stop_s = kNever)
+      : speed_(speed_mps), stop_s_(stop_s) {
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> across(-2.0, 2.0), along(1.0, 6.0), up(0.0, 2.5);
+    // World: camera axes at time 0 (x right, y down, z forward), floor (1) at y = 1.4,
+    // wall (2) at z = 6.
+    for (int i = 0; i < 500; ++i) points_.push_back({{across(rng), 1.4, along(rng)}, 1});
+    for (int i = 0; i < 500; ++i) points_.push_back({{across(rng), 1.4 - up(rng), 6.0}, 2});
+  }
+
+  Eigen::Matrix3d WorldFromCam(double t) const override {
+    return Eigen::AngleAxisd(0.08 * std::sin(1.5 * t), Eigen::Vector3d::UnitY()).toRotationMatrix();
+  }
+  Eigen::Vector3d Position(double t) const override {
+    const double moving = std::min(t, stop_s_);
+    return {0.1 * std::sin(2.0 * moving), 0.02 * std::sin(11.0 * moving), speed_ * moving};
+  }
+
+ private:
+  static constexpr double kNever = 1e9;
+  double speed_;
+  double stop_s_;
+};
+
+// Two walls meeting in a corner, seen by a camera stepping sideways: the wall faced (1,
+// z = 4 left of the corner at x = 1) is tracked all over until `switch_frame`, then only
+// within `band_m` of the corner; the wall beyond (2, turning back toward the camera at 45
+// deg) only from then on, as when the camera turns from one wall to the next.
+class SyntheticCorner : public SyntheticTracks {
+ public:
+  SyntheticCorner(int switch_frame, double band_m) {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> up(-1.0, 1.0), unit(0.0, 1.0);
+    for (int i = 0; i < 400; ++i) {
+      const double x = 1.0 - 3.0 * unit(rng);
+      points_.push_back({{x, up(rng), 4.0}, 1, 0, x > 1.0 - band_m ? kAlways : switch_frame});
+    }
+    for (int i = 0; i < 400; ++i) {
+      const double a = 0.4 + 1.6 * unit(rng);
+      points_.push_back({{1.0 + a, up(rng), 4.0 - a}, 2, switch_frame, kAlways});
+    }
+  }
+
+  Eigen::Matrix3d WorldFromCam(double t) const override {
+    return Eigen::AngleAxisd(0.2 + 0.2 * t, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  }
+  Eigen::Vector3d Position(double t) const override { return {-1.0 + 1.2 * t, 0.0, 0.0}; }
+
+ private:
+  static constexpr int kAlways = std::numeric_limits<int>::max();
+};
+
+// A plane whose tracks dwindle to a strip along a corner is not the next wall, though the
+// next wall's homography fits that strip: the strip lies on both. Merged into it, the
+// plane's id passed to the other wall, and box 10 took tracks of both walls as one plane
+// (the office walk at 640x480, 30 s: 36 tracks on one wall and 84 on the next, the solve
+// 69-106 iterations).
+TEST(PlaneTracker, APlaneDwindledToACornerKeepsItsWall) {
+  const int switch_frame = 40;
+  SyntheticCorner corner(switch_frame, 0.25);
+  PlaneTracker tracker;
+  std::map<int, int> identity;  // Plane id -> the wall most of its tracks lay on first.
+  int frames_with_the_next_wall = 0;
+  for (int k = 0; k < 90; ++k) {
+    tracker.Update(SyntheticTracks::Time(k), corner.Frame(k), corner.camera());
+    for (const DominantPlane& plane : tracker.planes()) {
+      const auto on_next = std::count_if(plane.track_ids.begin(), plane.track_ids.end(),
+                                         [&](int id) { return corner.PlaneOf(id) == 2; });
+      const int wall = 2 * on_next > long(plane.track_ids.size()) ? 2 : 1;
+      if (!identity.count(plane.id)) identity[plane.id] = wall;
+      EXPECT_EQ(identity[plane.id], wall)
+          << "frame " << k << ": plane " << plane.id << " holds " << on_next << " of "
+          << plane.track_ids.size() << " tracks on the next wall";
+      frames_with_the_next_wall += wall == 2 && on_next == long(plane.track_ids.size());
+    }
+  }
+  EXPECT_EQ(identity.size(), 2u) << "one id per wall";
+  // Found once its tracks are a baseline old, and followed to the end.
+  EXPECT_GE(frames_with_the_next_wall, 90 - switch_frame - PlaneOptions().baseline_frames - 1);
+}
 
 TEST(PlaneTracker, FindsAndFollowsTheFloorAndTheWall) {
   SyntheticWalk walk(1.2);

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # `autocal bench` (issue #6): the whole pipeline timed on a simulated recording, its figures
 # printed and written as JSON; --loop plays a short rendering over and over for a long
-# session's memory; --live plays the frames as a camera in real time; --settings and --set
-# change the pipeline's options, reported with the figures; bad arguments are refused with
-# the reason.
+# session's memory; --live plays the frames as a camera in real time; --history keeps the
+# attempts; --settings and --set change the pipeline's options, reported with the figures;
+# bad arguments are refused with the reason.
 set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
@@ -57,8 +57,9 @@ grep -q "looped" "$dir/loop.txt" || fail "the report says the recording was loop
 
 # Played as a 30 fps camera: paced, not as fast as it can; every frame processed or counted
 # as dropped; attempts judged, their latency timed from the camera's delivery.
+# The history kept where --history says: one attempt for each judged update.
 "$autocal" bench --scenario office --resolution 160x120 --seconds 5 --live \
-  --json "$dir/live.json" >"$dir/live.txt" 2>/dev/null
+  --history "$dir/live.sqlite" --json "$dir/live.json" >"$dir/live.txt" 2>/dev/null
 grep -q '"live": true' "$dir/live.json" || fail "live in the JSON: $(cat "$dir/live.json")"
 awk -v s="$(field wall_seconds "$dir/live.json")" 'BEGIN { exit !(s > 4.8) }' ||
   fail "5 s at 30 fps take 5 s when paced: $(field wall_seconds "$dir/live.json") s"
@@ -67,6 +68,16 @@ awk -v s="$(field wall_seconds "$dir/live.json")" 'BEGIN { exit !(s > 4.8) }' ||
 grep -qE '"update_latency_ms": \{"median": [0-9.]+, "p95": [0-9.]+, "count": [1-9]' "$dir/live.json" ||
   fail "live attempts judged and timed: $(grep update_latency "$dir/live.json")"
 awk -v c="$(field cores_busy "$dir/live.json")" 'BEGIN { exit !(c > 0) }' || fail "cores busy"
+"$autocal" export --history "$dir/live.sqlite" --format csv --out "$dir/live.csv" >/dev/null
+judged=$(grep -oE '"update_latency_ms": \{"median": [0-9.]+, "p95": [0-9.]+, "count": [0-9]+' "$dir/live.json" | grep -oE '[0-9]+$')
+[[ $(( $(wc -l <"$dir/live.csv") - 1 )) == "$judged" ]] ||
+  fail "$judged updates judged, the history kept $(( $(wc -l <"$dir/live.csv") - 1 )) attempts"
+# A history holds one run: a file that already holds one is refused before the rendering.
+if "$autocal" bench --seconds 2 --history "$dir/live.sqlite" >/dev/null 2>"$dir/err.txt"; then
+  fail "a --history already holding attempts was accepted"
+fi
+grep -q "already holds" "$dir/err.txt" || fail "the refusal says why: $(cat "$dir/err.txt")"
+grep -q "rendering" "$dir/err.txt" && fail "rendered before checking the history"
 grep -q "paced by the camera" "$dir/live.txt" || fail "the report says the run was paced"
 if "$autocal" bench --seconds 2 --loop 1 --live >/dev/null 2>"$dir/err.txt"; then
   fail "--live with --loop was accepted"
