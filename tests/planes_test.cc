@@ -262,10 +262,12 @@ class SyntheticWalk : public SyntheticTracks {
   double stop_s_;
 };
 
-// Two walls meeting in a corner, seen by a camera stepping sideways: the wall faced (1,
-// z = 4 left of the corner at x = 1) is tracked all over until `switch_frame`, then only
-// within `band_m` of the corner; the wall beyond (2, turning back toward the camera at 45
-// deg) only from then on, as when the camera turns from one wall to the next.
+// Two walls meeting in a corner, seen by a camera stepping sideways and turning toward the
+// corner: the wall faced (1, z = 4 left of the corner at x = 1) is tracked all over until
+// `switch_frame`, then only within `band_m` of the corner; the wall beyond (2, turning back
+// toward the camera at 45 deg) only from then on, as when the camera turns from one wall
+// to the next, and from 0.4 m past the corner: tracks right by it would fit the strip's
+// homography and join the strip's plane, which box 6 does not prevent (docs/motion.md).
 class SyntheticCorner : public SyntheticTracks {
  public:
   SyntheticCorner(int switch_frame, double band_m) {
