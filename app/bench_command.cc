@@ -215,10 +215,13 @@ int Bench(const QStringList& arguments) {
 
   try {
     const PipelineOptions pipeline = PipelineOptionsFrom(parser);  // Before the long rendering.
-    if (parser.isSet("history")) {  // So is a history that is not new.
-      RunSettings history;
-      history.history_path = parser.value("history").toStdString();
-      OpenNewHistory(history);
+    // A --history file that already holds a run is refused before the rendering too (the
+    // run opens it again).
+    const std::string history_path = parser.value("history").toStdString();
+    if (!history_path.empty()) {
+      RunSettings check;
+      check.history_path = history_path;
+      OpenNewHistory(check);
     }
     Scenario scenario = ParseScenarioSpec(parser.value("scenario").toStdString());
     ApplyScenarioOverride(&scenario, "resolution", parser.value("resolution").toStdString());
@@ -243,8 +246,8 @@ int Bench(const QStringList& arguments) {
     if (!dir.isValid()) throw Error("cannot make a temporary folder for the history");
     RunSettings settings;
     settings.pipeline = pipeline;
-    settings.history_path = parser.isSet("history") ? parser.value("history").toStdString()
-                                                    : dir.filePath("history.sqlite").toStdString();
+    settings.history_path =
+        history_path.empty() ? dir.filePath("history.sqlite").toStdString() : history_path;
     settings.runtime.judge_after_frames = judge_after;
     ProgressPrinter printer("bench", "frames");
     const double cpu_before_s = ProcessCpuSeconds();
