@@ -84,8 +84,8 @@ std::vector<double*> AddPlumbLineResiduals(const std::vector<const LineObservati
 // parameters, in order), for unit residual variance: the Gauss-Newton Hessian J^T J with
 // every other parameter marginalized out by the Schur complement. `ordering` must hold
 // every non-constant block, the intrinsics in group 1 and in group 0 only blocks seen by
-// no residual together with another group-0 block (points, lines).
-// Empty when the intrinsics are not constrained.
+// no residual together with another group-0 block (points, lines); std::logic_error if
+// not. Empty when the intrinsics are not constrained.
 std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
                                                   const ceres::ParameterBlockOrdering& ordering,
                                                   double* intrinsics);

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include "pipeline/plane_point_cost.h"
 #include "pipeline/plumb_line_problem.h"
 
 #include "tests/test_util.h"
@@ -159,6 +160,91 @@ TEST(PlumbLine, MarginalCovarianceAgreesWithCeresDenseSvd) {
           << "entry (" << a << ", " << b << ")";
     }
   }
+}
+
+// The same on a problem laid out as box 10 lays out its own: a plane's points seen from
+// several views (eliminated, but for the one that fixes the plane's turn), the views and the
+// plane's pose in group 1, a view and a point held for the gauge, straight lines as well;
+// fx, fy, cx, cy, k1, k2 free. Every kind of block the complement gathers is exercised.
+TEST(PlumbLine, MarginalCovarianceOfAPlaneSeenFromSeveralViewsAgreesWithCeresDenseSvd) {
+  const CameraIntrinsics truth = test::SonnarLikeCamera(-0.2, 0.05);
+  cv::RNG rng(3);
+  const auto observed = SampleLines(truth, 6, 0, 0.3, rng);
+  std::vector<const LineObservation*> lines;
+  for (const LineObservation& line : observed) lines.push_back(&line);
+  std::vector<Eigen::Vector2d> points;
+  for (double u = 0.0; u <= 1.6; u += 0.2) {
+    for (double v = 0.0; v <= 1.2; v += 0.2) points.emplace_back(u, v);
+  }
+  // Views turned about the plane's centre, 2 m ahead, by up to 29 deg.
+  std::vector<std::array<double, 6>> views = {{0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
+  for (const Eigen::Vector3d& turn :
+       {Eigen::Vector3d(0.4, 0.0, 0.1), Eigen::Vector3d(0.0, 0.45, 0.0),
+        Eigen::Vector3d(-0.3, -0.3, 0.2), Eigen::Vector3d(0.2, -0.45, -0.1),
+        Eigen::Vector3d(-0.35, 0.3, 0.0)}) {
+    const Eigen::Vector3d ahead(0.0, 0.0, 2.0);
+    const Eigen::Vector3d shift = ahead - Eigen::AngleAxisd(turn.norm(), turn.normalized()) * ahead;
+    views.push_back({turn.x(), turn.y(), turn.z(), shift.x(), shift.y(), shift.z()});
+  }
+  const std::array<double, 6> plane = {0.0, 0.0, 0.0, -0.8, -0.6, 2.0};
+
+  ParameterArena arena(kNumIntrinsics + 6 * (views.size() + 1) + 2 * points.size() +
+                       PlumbLineParameterCount(lines));
+  double* const intrinsics = arena.Add(truth.Packed());
+  std::vector<double*> view_blocks;
+  for (const auto& view : views) view_blocks.push_back(arena.Add(view));
+  double* const plane_block = arena.Add(plane);
+  std::vector<double*> point_blocks;
+  for (const Eigen::Vector2d& point : points) {
+    point_blocks.push_back(arena.Add(std::array{point.x(), point.y()}));
+  }
+  ceres::Problem problem;
+  auto* ordering = new ceres::ParameterBlockOrdering;
+  for (double* view : view_blocks) {
+    for (double* point : point_blocks) {
+      double pixel[2];
+      const double* at[] = {intrinsics, view, plane_block, point};
+      ASSERT_TRUE(PlanePointCost(Eigen::Vector2d::Zero()).Evaluate(at, pixel, nullptr));
+      const Eigen::Vector2d noisy(pixel[0] + rng.gaussian(0.2), pixel[1] + rng.gaussian(0.2));
+      problem.AddResidualBlock(new PlanePointCost(noisy), new ceres::CauchyLoss(1.0), intrinsics,
+                               view, plane_block, point);
+    }
+  }
+  for (double* point : point_blocks) ordering->AddElementToGroup(point, point == point_blocks[1]);
+  problem.SetParameterBlockConstant(point_blocks[0]);
+  problem.SetManifold(point_blocks[1], new ceres::SubsetManifold(2, {1}));
+  problem.SetParameterBlockConstant(view_blocks[0]);
+  for (double* view : view_blocks) ordering->AddElementToGroup(view, 1);
+  problem.SetManifold(plane_block, new ceres::SubsetManifold(6, {5}));
+  ordering->AddElementToGroup(plane_block, 1);
+  AddPlumbLineResiduals(lines, truth, 1.0, intrinsics, &problem, ordering, &arena);
+  problem.SetManifold(intrinsics, new ceres::SubsetManifold(kNumIntrinsics, {kP1, kP2, kK3}));
+  ordering->AddElementToGroup(intrinsics, 1);
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_SCHUR;
+  options.linear_solver_ordering.reset(ordering);
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  ASSERT_TRUE(summary.IsSolutionUsable()) << summary.BriefReport();
+
+  const std::optional<Eigen::MatrixXd> ours = MarginalCovariance(&problem, *ordering, intrinsics);
+  ASSERT_TRUE(ours.has_value());
+  ASSERT_EQ(ours->rows(), 6);  // fx, fy, cx, cy, k1, k2.
+  ceres::Covariance::Options svd;
+  svd.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance covariance(svd);
+  const std::vector<std::pair<const double*, const double*>> block = {{intrinsics, intrinsics}};
+  ASSERT_TRUE(covariance.Compute(block, &problem));
+  Eigen::MatrixXd theirs(6, 6);
+  covariance.GetCovarianceBlockInTangentSpace(intrinsics, intrinsics, theirs.data());
+  for (int a = 0; a < 6; ++a) {
+    for (int b = 0; b < 6; ++b) {
+      EXPECT_NEAR((*ours)(a, b), theirs(a, b), 1e-6 * std::sqrt(theirs(a, a) * theirs(b, b)))
+          << "entry (" << a << ", " << b << ")";
+    }
+  }
+  // fx is known from the views (the lines alone leave it free).
+  EXPECT_LT(std::sqrt((*ours)(0, 0)), 0.02 * truth.fx);
 }
 
 // The residual runs from the observed pixel to the nearest point of the line's image: as
