@@ -511,6 +511,10 @@ std::vector<OptionField> MakeFields() {
                     &C::max_focal_sigma),
       Field<int>("calibration.max_iterations", 1, 10000, "Levenberg-Marquardt iterations",
                  &P::calibration, &C::max_iterations),
+      Field<int>("calibration.warm_first_pass_iterations", 1, 10000,
+                 "from the previous attempt's solution, the first pass (before the worst "
+                 "points are left out) stops after this many iterations at most",
+                 &P::calibration, &C::warm_first_pass_iterations),
       Field<bool>("calibration.warm_start", 0, 1,
                   "start from the previous attempt's solution on the views it shares",
                   &P::calibration, &C::warm_start),
@@ -526,6 +530,10 @@ std::vector<OptionField> MakeFields() {
       Field<double>("calibration.function_tolerance", 1e-12, 0.1,
                     "converged when an iteration lowers the cost by less than this fraction",
                     &P::calibration, &C::function_tolerance),
+      Field<double>("calibration.still_intrinsics_px", 0, 100,
+                    "the last pass also ends once two iterations in a row each move the "
+                    "calibration's image by less than this (px; 0: only by the cost)",
+                    &P::calibration, &C::still_intrinsics_px),
       // The history.
       Field<double>("acceptance.max_rms_px", 0.001, 100,
                     "attempts with a larger reprojection RMS are rejected (px)", &P::acceptance,

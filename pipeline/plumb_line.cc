@@ -175,7 +175,8 @@ std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
     std::fill(block_of_column.begin() + offsets[b], block_of_column.begin() + end, b);
   }
 
-  // J_c^T J_c row by row, and each row filed under the group-0 block it sees, if any.
+  // J_c^T J_c row by row, and each row filed under the group-0 block it sees, if any. Only
+  // the upper triangle is summed, here and below; the lower is copied from it at the end.
   const int kept = columns - eliminated;
   Eigen::MatrixXd schur = Eigen::MatrixXd::Zero(kept, kept);
   std::vector<std::vector<int>> rows_of_block(eliminated_blocks);
@@ -191,16 +192,17 @@ std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
         block = block_of_column[column];
         continue;
       }
-      for (int l = first; l < last; ++l) {
-        if (crs.cols[l] >= eliminated) {
-          schur(column - eliminated, crs.cols[l] - eliminated) += crs.values[k] * crs.values[l];
-        }
+      for (int l = k; l < last; ++l) {
+        if (crs.cols[l] < eliminated) continue;
+        const int a = column - eliminated, b = crs.cols[l] - eliminated;
+        schur(std::min(a, b), std::max(a, b)) += crs.values[k] * crs.values[l];
       }
     }
     if (block >= 0) rows_of_block[block].push_back(row);
   }
 
-  // Less H_ce H_ee^-1 H_ec, block by block over the columns the block's rows reach.
+  // Less H_ce H_ee^-1 H_ec, block by block over the columns the block's rows reach (in
+  // increasing order, so that pairs i <= j fall in the upper triangle).
   std::vector<int> local_of_column(kept, -1);
   std::vector<int> reached;
   for (int b = 0; b < eliminated_blocks; ++b) {
@@ -212,11 +214,13 @@ std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
       for (int k = crs.rows[row]; k < crs.rows[row + 1]; ++k) {
         const int column = crs.cols[k] - eliminated;
         if (column >= 0 && local_of_column[column] < 0) {
-          local_of_column[column] = int(reached.size());
+          local_of_column[column] = 0;
           reached.push_back(column);
         }
       }
     }
+    std::sort(reached.begin(), reached.end());
+    for (size_t i = 0; i < reached.size(); ++i) local_of_column[reached[i]] = int(i);
     Eigen::MatrixXd hee = Eigen::MatrixXd::Zero(size, size);
     Eigen::MatrixXd hec = Eigen::MatrixXd::Zero(size, Eigen::Index(reached.size()));
     for (int row : rows_of_block[b]) {
@@ -241,13 +245,14 @@ std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
     if (ldlt.info() != Eigen::Success || ldlt.vectorD().minCoeff() <= 1e-12 * hee.trace()) {
       continue;
     }
-    const Eigen::MatrixXd reduction = hec.transpose() * ldlt.solve(hec);
-    for (size_t i = 0; i < reached.size(); ++i) {
-      for (size_t j = 0; j < reached.size(); ++j) {
-        schur(reached[i], reached[j]) -= reduction(Eigen::Index(i), Eigen::Index(j));
+    const Eigen::MatrixXd solved = ldlt.solve(hec);
+    for (Eigen::Index j = 0; j < hec.cols(); ++j) {
+      for (Eigen::Index i = 0; i <= j; ++i) {
+        schur(reached[i], reached[j]) -= hec.col(i).dot(solved.col(j));
       }
     }
   }
+  schur = schur.selfadjointView<Eigen::Upper>().toDenseMatrix();
 
   // Scaled to a unit diagonal, so that the damping below is relative to each column's own
   // stiffness. A direction left free by the gauge would make the matrix singular; the

@@ -92,9 +92,19 @@ struct SelfCalibrationOptions {
   // Levenberg-Marquardt iterations a pass; a last pass still descending after them makes no
   // update (it was crawling along a nearly flat valley, and stopped anywhere on it).
   int max_iterations = 100;
+  // From an earlier attempt's solution, the first pass (the one that tells the points that
+  // fit badly apart) stops after this many iterations at most.
+  int warm_first_pass_iterations = 3;
   // Converged when an iteration lowers the cost by less than this fraction: Ceres' 1e-6
   // took one or two more iterations in seven, moving fx by 0.01% at most.
   double function_tolerance = 1e-5;
+  // The last pass also ends once two successful iterations in a row have each moved the
+  // image of the calibration by less than this (px: the largest shift of a 3 x 3 grid of
+  // points spanning the image), the cost falling by less than 0.1% in each
+  // (IntrinsicsStandStill); 0: only by the cost. The outdoor walk's long solves spent their
+  // last 4-6 iterations with the cost falling 1-3e-5 an iteration and the calibration
+  // moving by 0.01-0.015 px.
+  double still_intrinsics_px = 0.02;
   bool warm_start = true;                // Start from CalibrationMaterial::start if set.
   // A warm start whose plane points reproject with a median error above this (px) is
   // dropped for a cold one. Most fit within 0.2-0.3 px; one off by 7-28 px (a short

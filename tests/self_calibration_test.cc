@@ -272,6 +272,36 @@ TEST(SelfCalibration, WarmStartFromAnOverlappingWindowEndsWhereAColdStartDoes) {
   EXPECT_EQ(ignored.iterations, cold.iterations);
 }
 
+// From the previous solution the first pass only has to tell the points that fit badly
+// apart: cut to one iteration or run to its 1% tolerance, the window ends at the same
+// minimum. The start's focal length is 3% off, as after a knock, so that the first pass
+// has some way to go.
+TEST(SelfCalibration, WarmFirstPassCutShortEndsAtTheSameMinimum) {
+  OverlappingWindows windows;
+  ASSERT_TRUE(windows.solved.usable) << windows.solved.reason;
+  CalibrationMaterial second = windows.second;
+  second.start = windows.start;
+  second.start->intrinsics.fx *= 1.004;
+  second.start->intrinsics.fy *= 1.004;
+  SelfCalibrationOptions long_first;
+  long_first.warm_first_pass_iterations = 100;
+  SelfCalibrationOptions short_first;
+  short_first.warm_first_pass_iterations = 1;
+  const SelfCalibrationResult full = SelfCalibrate(second, WrongStart(), long_first);
+  const SelfCalibrationResult cut = SelfCalibrate(second, WrongStart(), short_first);
+  std::printf("first pass in full: %d iterations in all, fx %.6f; cut to one: %d, fx %.6f\n",
+              full.iterations, full.estimate.fx, cut.iterations, cut.estimate.fx);
+  ASSERT_TRUE(full.usable) << full.reason;
+  ASSERT_TRUE(cut.usable) << cut.reason;
+  // The cut takes effect (here the first pass takes two iterations in full, and the second
+  // one more after the cut), so the two differ in the last digits, not more.
+  EXPECT_NE(cut.estimate.fx, full.estimate.fx) << "the cut took effect";
+  EXPECT_NEAR(cut.estimate.fx / full.estimate.fx, 1.0, 2e-4);
+  EXPECT_NEAR(cut.estimate.fy / full.estimate.fy, 1.0, 2e-4);
+  EXPECT_NEAR(cut.estimate.cx, full.estimate.cx, 0.1);
+  EXPECT_NEAR(cut.estimate.k1, full.estimate.k1, 1e-3);
+}
+
 // The view that sees most of the largest plane is often one the window has just taken in,
 // which the start cannot have placed: the start's structure still carries over, through
 // the view it placed that sees most of that plane.
@@ -715,6 +745,28 @@ TEST(SelfCalibration, SolveCutShortGivesNoUpdate) {
         << cut.reason;
     EXPECT_EQ(cut.estimate, WrongStart()) << "no update leaves the calibration alone";
   }
+}
+
+// The stop on the calibration standing still (IntrinsicsStandStill, tested on its own in
+// intrinsics_stand_still_test.cc) does not cut a solve short from a wrong start, where the
+// intrinsics can hold still while the views and points are still far off: with a single
+// pass, the last, the room's solve ends where the cost alone ends it.
+TEST(SelfCalibration, StandStillDoesNotCutASolveFromAWrongStartShort) {
+  cv::RNG rng(4);
+  const Room room = MakeRoom(rng);
+  const CalibrationMaterial material =
+      Observe(room, Walk(LookingAbout, 40), test::SonnarLikeCamera(), 0.5, rng);
+  SelfCalibrationOptions by_cost;
+  by_cost.max_point_rms_ratio = 0.0;  // One pass, the last, from the wrong start.
+  by_cost.still_intrinsics_px = 0.0;
+  SelfCalibrationOptions also_standing = by_cost;
+  also_standing.still_intrinsics_px = 0.3;
+  const SelfCalibrationResult full = SelfCalibrate(material, WrongStart(), by_cost);
+  const SelfCalibrationResult still = SelfCalibrate(material, WrongStart(), also_standing);
+  ASSERT_TRUE(full.usable) << full.reason;
+  ASSERT_TRUE(still.usable) << still.reason;
+  EXPECT_NEAR(still.estimate.fx, full.estimate.fx, 0.05);
+  EXPECT_NEAR(still.estimate.cx, full.estimate.cx, 0.05);
 }
 
 TEST(SelfCalibration, TooFewTracksGiveNoUpdate) {
