@@ -165,7 +165,8 @@ TEST(PlumbLine, MarginalCovarianceAgreesWithCeresDenseSvd) {
 // The same on a problem laid out as box 10 lays out its own: a plane's points seen from
 // several views (eliminated, but for the one that fixes the plane's turn), the views and the
 // plane's pose in group 1, a view and a point held for the gauge, straight lines as well;
-// fx, fy, cx, cy, k1, k2 free. Every kind of block the complement gathers is exercised.
+// fx, fy, cx, cy, k1, k2 free: the complement gathers eliminated points and lines, and
+// keeps views, a plane, a point held to its axis and the intrinsics.
 TEST(PlumbLine, MarginalCovarianceOfAPlaneSeenFromSeveralViewsAgreesWithCeresDenseSvd) {
   const CameraIntrinsics truth = test::SonnarLikeCamera(-0.2, 0.05);
   cv::RNG rng(3);
