@@ -122,6 +122,25 @@ TEST(PlumbLine, FreesTangentialK3AndTheCentreWhenAsked) {
   EXPECT_GT(MaxDistortionDifference(radial_only.estimate, truth, 0.9), 1.0);
 }
 
+// `ours` against Ceres' covariance of the intrinsics by dense SVD of the whole Jacobian,
+// entry by entry to 1e-6 of the entries' standard deviations.
+void ExpectCovarianceMatchesCeresDenseSvd(ceres::Problem* problem, const double* intrinsics,
+                                          const Eigen::MatrixXd& ours) {
+  ceres::Covariance::Options svd;
+  svd.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance covariance(svd);
+  const std::vector<std::pair<const double*, const double*>> block = {{intrinsics, intrinsics}};
+  ASSERT_TRUE(covariance.Compute(block, problem));
+  Eigen::MatrixXd theirs(ours.rows(), ours.cols());
+  covariance.GetCovarianceBlockInTangentSpace(intrinsics, intrinsics, theirs.data());
+  for (int a = 0; a < ours.rows(); ++a) {
+    for (int b = 0; b < ours.cols(); ++b) {
+      EXPECT_NEAR(ours(a, b), theirs(a, b), 1e-6 * std::sqrt(theirs(a, a) * theirs(b, b)))
+          << "entry (" << a << ", " << b << ")";
+    }
+  }
+}
+
 // The Schur-complement covariance against Ceres' own, by dense SVD of the whole Jacobian,
 // on a solved plumb-line problem whose distortion and centre are free.
 TEST(PlumbLine, MarginalCovarianceAgreesWithCeresDenseSvd) {
@@ -147,19 +166,7 @@ TEST(PlumbLine, MarginalCovarianceAgreesWithCeresDenseSvd) {
   const std::optional<Eigen::MatrixXd> ours = MarginalCovariance(&problem, *ordering, intrinsics);
   ASSERT_TRUE(ours.has_value());
   ASSERT_EQ(ours->rows(), 5);  // cx, cy, k1, k2, k3.
-  ceres::Covariance::Options svd;
-  svd.algorithm_type = ceres::DENSE_SVD;
-  ceres::Covariance covariance(svd);
-  const std::vector<std::pair<const double*, const double*>> block = {{intrinsics, intrinsics}};
-  ASSERT_TRUE(covariance.Compute(block, &problem));
-  Eigen::MatrixXd theirs(5, 5);
-  covariance.GetCovarianceBlockInTangentSpace(intrinsics, intrinsics, theirs.data());
-  for (int a = 0; a < 5; ++a) {
-    for (int b = 0; b < 5; ++b) {
-      EXPECT_NEAR((*ours)(a, b), theirs(a, b), 1e-6 * std::sqrt(theirs(a, a) * theirs(b, b)))
-          << "entry (" << a << ", " << b << ")";
-    }
-  }
+  ExpectCovarianceMatchesCeresDenseSvd(&problem, intrinsics, *ours);
 }
 
 // The same on a problem laid out as box 10 lays out its own: a plane's points seen from
@@ -231,19 +238,7 @@ TEST(PlumbLine, MarginalCovarianceOfAPlaneSeenFromSeveralViewsAgreesWithCeresDen
   const std::optional<Eigen::MatrixXd> ours = MarginalCovariance(&problem, *ordering, intrinsics);
   ASSERT_TRUE(ours.has_value());
   ASSERT_EQ(ours->rows(), 6);  // fx, fy, cx, cy, k1, k2.
-  ceres::Covariance::Options svd;
-  svd.algorithm_type = ceres::DENSE_SVD;
-  ceres::Covariance covariance(svd);
-  const std::vector<std::pair<const double*, const double*>> block = {{intrinsics, intrinsics}};
-  ASSERT_TRUE(covariance.Compute(block, &problem));
-  Eigen::MatrixXd theirs(6, 6);
-  covariance.GetCovarianceBlockInTangentSpace(intrinsics, intrinsics, theirs.data());
-  for (int a = 0; a < 6; ++a) {
-    for (int b = 0; b < 6; ++b) {
-      EXPECT_NEAR((*ours)(a, b), theirs(a, b), 1e-6 * std::sqrt(theirs(a, a) * theirs(b, b)))
-          << "entry (" << a << ", " << b << ")";
-    }
-  }
+  ExpectCovarianceMatchesCeresDenseSvd(&problem, intrinsics, *ours);
   // fx is known from the views (the lines alone leave it free).
   EXPECT_LT(std::sqrt((*ours)(0, 0)), 0.02 * truth.fx);
 }
