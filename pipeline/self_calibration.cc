@@ -314,37 +314,34 @@ bool StructureFromStart(const CalibrationStart& start, const std::vector<const P
   return true;
 }
 
-// The two points that fix a plane's frame within the plane (its origin, and the direction
-// of its first axis): the one nearest the points' centroid, so that the plane tilts about
-// its middle, and the one farthest from that, so that a turn about the normal moves it
-// most. Taken by track order instead, the origin could lie at one end of a ground seen to
-// the horizon, 35 units from the middle of its points: the solves then crawled along the
-// plane's tilt about that end, the points following on their arcs (the outdoor walk's
-// windows: 100 iterations and more, with the intrinsics held too).
-template <typename Point>
-std::pair<int, int> GaugePoints(const std::map<int, Point>& points) {
-  const auto position = [](const Point& x) {
-    Eigen::Vector3d at = Eigen::Vector3d::Zero();
-    for (int i = 0; i < int(x.size()); ++i) at[i] = x[i];
-    return at;
-  };
+// A plane's frame for its estimate (its virtual board is laid in it, and the next window
+// starts from its points there), on the plane through `points` with normal `normal`: its
+// origin at the point nearest the points' centroid, its first axis toward the point
+// farthest from that.
+Eigen::Isometry3d PlaneFrame(const std::map<int, Eigen::Vector3d>& points,
+                             const Eigen::Vector3d& normal) {
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const auto& [id, x] : points) centroid += position(x);
+  for (const auto& [id, x] : points) centroid += x;
   centroid /= double(points.size());
   const auto farthest_from = [&](const Eigen::Vector3d& from, double sign) {
-    int best = points.begin()->first;
+    const Eigen::Vector3d* best = &points.begin()->second;
     double best_distance = -std::numeric_limits<double>::infinity();
     for (const auto& [id, x] : points) {
-      const double distance = sign * (position(x) - from).squaredNorm();
+      const double distance = sign * (x - from).squaredNorm();
       if (distance > best_distance) {
-        best = id;
+        best = &x;
         best_distance = distance;
       }
     }
-    return best;
+    return *best;
   };
-  const int first = farthest_from(centroid, -1.0);
-  return {first, farthest_from(position(points.at(first)), 1.0)};
+  const Eigen::Vector3d origin = farthest_from(centroid, -1.0);
+  Eigen::Vector3d axis_u = farthest_from(origin, 1.0) - origin;
+  axis_u = (axis_u - normal.dot(axis_u) * normal).normalized();
+  Eigen::Isometry3d world_from_plane = Eigen::Isometry3d::Identity();
+  world_from_plane.linear() << axis_u, normal.cross(axis_u), normal;
+  world_from_plane.translation() = origin;
+  return world_from_plane;
 }
 
 }  // namespace
@@ -484,16 +481,17 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     return no_update(why.str());
   }
 
-  // Each plane: a frame through its first point, its first axis toward its second point;
-  // its points as (u, v) in that frame.
+  // Each plane m . X = 1 in the camera of its own reference view, the one that sees most of
+  // its points (the window's reference where it sees as many), and each point on its ray
+  // (a, b, 1) there (PlanePointCost).
   ceres::Problem problem;
   auto* ordering = new ceres::ParameterBlockOrdering;
   std::array<double, kNumIntrinsics> intrinsics = start.Packed();
   std::vector<Pose> frame_poses(material.frame_count);
   for (int f : posed) frame_poses[f] = FromIsometry(*structure.cam_from_world[f]);
-  std::vector<Pose> plane_poses(tracks.size());
-  std::vector<std::map<int, std::array<double, 2>>> plane_points(tracks.size());
-  std::vector<std::pair<int, int>> gauge(tracks.size());  // Per plane, GaugePoints' ids.
+  std::vector<int> plane_reference(tracks.size(), -1);
+  std::vector<std::array<double, 3>> plane_params(tracks.size());
+  std::vector<std::map<int, std::array<double, 2>>> rays(tracks.size());
   struct Residual {
     int frame, plane, point;
     Eigen::Vector2d pixel;
@@ -502,65 +500,93 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   for (size_t p = 0; p < tracks.size(); ++p) {
     const auto& points = structure.points[p];
     if (int(points.size()) < options.min_points_per_plane) continue;
-    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-    for (const auto& [id, x] : points) centroid += x;
-    centroid /= double(points.size());
-    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-    for (const auto& [id, x] : points) scatter += (x - centroid) * (x - centroid).transpose();
-    const Eigen::Vector3d normal =
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
-    gauge[p] = GaugePoints(points);
-    const Eigen::Vector3d& first = points.at(gauge[p].first);
-    const Eigen::Vector3d origin = first - normal.dot(first - centroid) * normal;
-    Eigen::Vector3d axis_u = points.at(gauge[p].second) - origin;
-    axis_u = (axis_u - normal.dot(axis_u) * normal).normalized();
-    Eigen::Isometry3d world_from_plane = Eigen::Isometry3d::Identity();
-    world_from_plane.linear() << axis_u, normal.cross(axis_u), normal;
-    world_from_plane.translation() = origin;
-    plane_poses[p] = FromIsometry(world_from_plane);
-    for (const auto& [id, x] : points) {
-      const Eigen::Vector3d local = world_from_plane.inverse() * x;
-      plane_points[p][id] = {local.x(), local.y()};
+    std::map<int, int> seen_by;  // Frame -> the plane's points it sees.
+    for (const PlaneObservation& o : used[p]->observations) {
+      if (points.count(o.point) && structure.cam_from_world[o.frame]) ++seen_by[o.frame];
     }
-    // Gauge: the first point is the plane's origin, the second lies on its first axis.
-    plane_points[p][gauge[p].first] = {0.0, 0.0};
-    plane_points[p][gauge[p].second][1] = 0.0;
+    if (seen_by.empty()) continue;
+    int k = seen_by.begin()->first;
+    for (const auto& [frame, count] : seen_by) {
+      if (count > seen_by[k] || (count == seen_by[k] && frame == reference)) k = frame;
+    }
+    plane_reference[p] = k;
+    const Eigen::Isometry3d& reference_from_world = *structure.cam_from_world[k];
+    // m from the points' inverse depths in view k, 1 / z = m . (a, b, 1), by least squares.
+    // Points triangulated over little parallax scatter along their rays, and a plane fitted
+    // to their positions turns toward the rays, nearly edge-on to the views; in inverse depth
+    // the scatter averages out instead. From the wrong start, 33 of 40 synthetic
+    // rooms converged with a fitted plane, 40 of 40 so (docs/calibration.md, session 25).
+    Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d normal_rhs = Eigen::Vector3d::Zero();
+    for (const auto& [id, x] : points) {
+      const Eigen::Vector3d in_reference = reference_from_world * x;
+      if (in_reference.z() == 0.0) continue;
+      const Eigen::Vector3d ray = in_reference / in_reference.z();
+      normal_matrix += ray * ray.transpose();
+      normal_rhs += ray / in_reference.z();
+    }
+    const Eigen::Vector3d m = normal_matrix.ldlt().solve(normal_rhs);
+    plane_params[p] = {m.x(), m.y(), m.z()};
+    // A ray reaches points behind view k too (any but those level with its camera), but a
+    // point that view k sees there was triangulated wrong: left out, as behind any other
+    // camera that sees it (below).
+    std::set<int> seen_by_reference;
+    for (const PlaneObservation& o : used[p]->observations) {
+      if (o.frame == k) seen_by_reference.insert(o.point);
+    }
+    for (const auto& [id, x] : points) {
+      const Eigen::Vector3d in_reference = reference_from_world * x;
+      if (in_reference.z() != 0.0 && (in_reference.z() > 0.0 || !seen_by_reference.count(id))) {
+        rays[p][id] = {in_reference.x() / in_reference.z(), in_reference.y() / in_reference.z()};
+      }
+    }
     for (const auto& [id, seen] : tracks[p]) {
-      if (!plane_points[p].count(id)) continue;
+      if (!rays[p].count(id)) continue;
       for (const PlaneObservation& o : used[p]->observations) {
         if (o.point == id && structure.cam_from_world[o.frame]) {
           residuals.push_back({o.frame, int(p), id, o.pixel});
         }
       }
     }
-    ++result.planes_used;
-    result.points_used += int(plane_points[p].size());
   }
+  // A residual's reprojection error (px) at the values in the arrays (not the solver's
+  // blocks: copy_out below brings those back); nullopt where the point cannot be evaluated.
+  const auto error_px = [&](const Residual& r) -> std::optional<Eigen::Vector2d> {
+    Eigen::Vector2d e;
+    const int k = plane_reference[r.plane];
+    const double* ray = rays[r.plane].at(r.point).data();
+    if (r.frame == k) {
+      const double* const at[] = {intrinsics.data(), ray};
+      ReferenceRayCost(r.pixel).Evaluate(at, e.data(), nullptr);
+      return e;
+    }
+    if (!PlanePointCost(r.pixel).Residual(intrinsics.data(), frame_poses[r.frame].data(),
+                                          frame_poses[k].data(), plane_params[r.plane].data(), ray,
+                                          e.data())) {
+      return std::nullopt;
+    }
+    return e;
+  };
   // A point that the initial structure places behind a camera that sees it (a track that
   // jumped to another surface, a triangulation gone wrong) cannot be evaluated at all:
   // left out, or the solver could not start.
-  std::erase_if(residuals, [&](const Residual& r) {
-    double e[2];
-    return !PlanePointCost(r.pixel).Residual(intrinsics.data(), frame_poses[r.frame].data(),
-                                             plane_poses[r.plane].data(),
-                                             plane_points[r.plane][r.point].data(), e);
-  });
-  // A residual's reprojection error (px) at the values in the arrays (not the solver's
-  // blocks: copy_out below brings those back).
-  const auto error_px = [&](const Residual& r) {
-    Eigen::Vector2d e;
-    PlanePointCost(r.pixel).Residual(intrinsics.data(), frame_poses[r.frame].data(),
-                                     plane_poses[r.plane].data(),
-                                     plane_points[r.plane][r.point].data(), e.data());
-    return e;
-  };
+  std::erase_if(residuals, [&](const Residual& r) { return !error_px(r); });
+  for (size_t p = 0; p < tracks.size(); ++p) {
+    std::set<int> kept;
+    for (const Residual& r : residuals) {
+      if (r.plane == int(p)) kept.insert(r.point);
+    }
+    std::erase_if(rays[p], [&](const auto& ray) { return !kept.count(ray.first); });
+    if (!rays[p].empty()) ++result.planes_used;
+    result.points_used += int(rays[p].size());
+  }
   // The reference view holds the world still; a start that leaves it without a point it
   // sees (its anchor plane new to this window) is of no use, nor one that does not fit
   // the window's tracks.
   const auto median_error_px = [&] {
     std::vector<double> errors;
     for (const Residual& r : residuals) {
-      const Eigen::Vector2d e = error_px(r);
+      const Eigen::Vector2d e = *error_px(r);
       errors.push_back(std::hypot(e.x(), e.y()));
     }
     std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
@@ -579,53 +605,51 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   // (its anchor plane too poorly triangulated to keep), nothing would.
   if (!reference_sees) return no_update("no plane point placed in front of the reference view");
 
-  // The parameter blocks, in one arena: plane points (eliminated first), then the
-  // intrinsics, frame poses and plane poses; the lines and the gravity direction after.
+  // The parameter blocks, in one arena: the points' rays (eliminated first), then the
+  // intrinsics, frame poses and planes; the lines and the gravity direction after.
   std::vector<const LineObservation*> lines;
   for (const LineObservation& line : material.lines) {
     if (line.points.size() >= 5) lines.push_back(&line);
   }
-  size_t capacity = kNumIntrinsics + 6 * (posed.size() + tracks.size()) + 3 +
-                    PlumbLineParameterCount(lines);
-  for (const auto& points : plane_points) capacity += 2 * points.size();
+  size_t capacity =
+      kNumIntrinsics + 6 * posed.size() + 3 * tracks.size() + 3 + PlumbLineParameterCount(lines);
+  for (const auto& plane_rays : rays) capacity += 2 * plane_rays.size();
   ParameterArena arena(capacity);
-  std::vector<std::map<int, double*>> point_blocks(tracks.size());
+  std::vector<std::map<int, double*>> ray_blocks(tracks.size());
   for (size_t p = 0; p < tracks.size(); ++p) {
-    for (const auto& [id, uv] : plane_points[p]) point_blocks[p][id] = arena.Add(uv);
+    for (const auto& [id, ray] : rays[p]) ray_blocks[p][id] = arena.Add(ray);
   }
   double* const intrinsics_block = arena.Add(intrinsics);
   std::vector<double*> frame_blocks(material.frame_count, nullptr);
   for (int f : posed) frame_blocks[f] = arena.Add(frame_poses[f]);
-  std::vector<double*> plane_blocks(tracks.size());
-  for (size_t p = 0; p < tracks.size(); ++p) plane_blocks[p] = arena.Add(plane_poses[p]);
+  std::vector<double*> plane_blocks(tracks.size(), nullptr);
+  for (size_t p = 0; p < tracks.size(); ++p) {
+    if (!rays[p].empty()) plane_blocks[p] = arena.Add(plane_params[p]);
+  }
 
   for (const Residual& r : residuals) {
-    problem.AddResidualBlock(new PlanePointCost(r.pixel), new ceres::CauchyLoss(options.loss_px),
-                             intrinsics_block, frame_blocks[r.frame], plane_blocks[r.plane],
-                             point_blocks[r.plane].at(r.point));
+    const int k = plane_reference[r.plane];
+    double* const ray = ray_blocks[r.plane].at(r.point);
+    if (r.frame == k) {
+      problem.AddResidualBlock(new ReferenceRayCost(r.pixel),
+                               new ceres::CauchyLoss(options.loss_px), intrinsics_block, ray);
+    } else {
+      problem.AddResidualBlock(new PlanePointCost(r.pixel), new ceres::CauchyLoss(options.loss_px),
+                               intrinsics_block, frame_blocks[r.frame], frame_blocks[k],
+                               plane_blocks[r.plane], ray);
+    }
   }
   for (size_t p = 0; p < tracks.size(); ++p) {
-    if (point_blocks[p].size() < 2) continue;
-    double* const first = point_blocks[p].at(gauge[p].first);
-    double* const second = point_blocks[p].at(gauge[p].second);
-    // The points are eliminated, all but the second: with one coordinate held it has one
-    // free parameter, and eliminated blocks of one size take Ceres' Schur eliminator
-    // compiled for 2x2 blocks (3-5% off a solve) instead of the one for any size.
-    for (const auto& [id, block] : point_blocks[p]) {
-      if (problem.HasParameterBlock(block)) ordering->AddElementToGroup(block, block == second);
-    }
-    if (problem.HasParameterBlock(first)) problem.SetParameterBlockConstant(first);
-    if (problem.HasParameterBlock(second)) {
-      problem.SetManifold(second, new ceres::SubsetManifold(2, {1}));
-    }
-    if (problem.HasParameterBlock(plane_blocks[p])) {
+    for (const auto& [id, block] : ray_blocks[p]) ordering->AddElementToGroup(block, 0);
+    if (plane_blocks[p] && problem.HasParameterBlock(plane_blocks[p])) {
       ordering->AddElementToGroup(plane_blocks[p], 1);
     }
   }
-  // Gauge: the reference camera is the world, and the anchor's origin sits at its depth.
+  // Gauge: the reference camera is the world, and the anchor's distance from its reference
+  // view stays where it is (the scale).
   problem.SetParameterBlockConstant(frame_blocks[reference]);
-  if (problem.HasParameterBlock(plane_blocks[0])) {
-    problem.SetManifold(plane_blocks[0], new ceres::SubsetManifold(6, {5}));
+  if (plane_blocks[0] && problem.HasParameterBlock(plane_blocks[0])) {
+    problem.SetManifold(plane_blocks[0], new ceres::SphereManifold<3>());
   }
   for (int f : posed) {
     if (problem.HasParameterBlock(frame_blocks[f])) {
@@ -722,8 +746,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     std::copy_n(intrinsics_block, kNumIntrinsics, intrinsics.begin());
     for (int f : posed) std::copy_n(frame_blocks[f], 6, frame_poses[f].begin());
     for (size_t p = 0; p < tracks.size(); ++p) {
-      std::copy_n(plane_blocks[p], 6, plane_poses[p].begin());
-      for (auto& [id, uv] : plane_points[p]) std::copy_n(point_blocks[p].at(id), 2, uv.begin());
+      if (plane_blocks[p]) std::copy_n(plane_blocks[p], 3, plane_params[p].begin());
+      for (auto& [id, ray] : rays[p]) std::copy_n(ray_blocks[p].at(id), 2, ray.begin());
     }
   };
   copy_out();
@@ -734,7 +758,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     std::map<std::pair<int, int>, std::pair<double, int>> by_point;  // Squared sum, count.
     for (const Residual& r : residuals) {
       auto& [sum_sq, count] = by_point[{r.plane, r.point}];
-      sum_sq += error_px(r).squaredNorm();
+      sum_sq += error_px(r)->squaredNorm();
       ++count;
     }
     std::vector<double> mean_sq;
@@ -755,69 +779,27 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     // (on two, free to turn about the line through them), and the solve wandered (the
     // office tessar walk at 640x480: planes left with 2 or 3 points, 86-100 iterations).
     std::set<int> dropped;
-    for (size_t p = 1; p < plane_points.size(); ++p) {
-      if (!problem.HasParameterBlock(plane_blocks[p]) ||
+    for (size_t p = 1; p < rays.size(); ++p) {
+      if (!plane_blocks[p] || !problem.HasParameterBlock(plane_blocks[p]) ||
           staying[int(p)] >= options.min_points_per_plane) {
         continue;
       }
       dropped.insert(int(p));
-      for (const auto& [id, block] : point_blocks[p]) {
-        if (problem.HasParameterBlock(block)) left_out.insert({int(p), id});
-      }
+      for (const auto& [id, ray] : rays[p]) left_out.insert({int(p), id});
     }
-    // The anchor, if nearly all its points fit badly, keeps the two that fix its frame (any
-    // other plane left so bare went whole above). Where enough stay, those two may go too,
-    // and two are chosen afresh: a track of a filing cabinet held by the wall's plane, 110
-    // times the median point's RMS, once fixed the plane's frame, stayed, and took the
-    // plane's board over the cabinet.
-    std::set<int> frame_lost;  // Planes whose first or second point goes.
-    for (size_t p = 0; p < plane_points.size(); ++p) {
-      if (plane_points[p].size() < 2 || dropped.count(int(p))) continue;
-      const std::pair<int, int> first(int(p), gauge[p].first);
-      const std::pair<int, int> second(int(p), gauge[p].second);
-      if (!left_out.count(first) && !left_out.count(second)) continue;
-      if (staying[int(p)] >= 2) {
-        frame_lost.insert(int(p));
-      } else {
-        left_out.erase(first);
-        left_out.erase(second);
-      }
-    }
+    // The anchor, if nearly all its points fit badly, keeps them all: fewer than three would
+    // not hold its plane, and its plane holds the scale.
+    if (staying[0] < 3) std::erase_if(left_out, [](const auto& point) { return point.first == 0; });
     for (const auto& [plane, id] : left_out) {
-      double* const block = point_blocks[plane].at(id);
+      double* const block = ray_blocks[plane].at(id);
       ordering->Remove(block);
       problem.RemoveParameterBlock(block);
-      plane_points[plane].erase(id);
+      rays[plane].erase(id);
     }
     for (const int plane : dropped) {
       ordering->Remove(plane_blocks[plane]);
       problem.RemoveParameterBlock(plane_blocks[plane]);
       --result.planes_used;
-    }
-    for (const int plane : frame_lost) {
-      // The one of the two that stays is freed, and two are chosen afresh among those that
-      // stay, held where they are: any place fixes the plane's frame, as (0, 0) and v = 0 did.
-      double* const old_first = point_blocks[plane].at(gauge[plane].first);
-      double* const old_second = point_blocks[plane].at(gauge[plane].second);
-      if (problem.HasParameterBlock(old_first)) {
-        // Ceres took it out of the ordering when the first pass found it constant.
-        problem.SetParameterBlockVariable(old_first);
-        ordering->AddElementToGroup(old_first, 0);
-      }
-      if (problem.HasParameterBlock(old_second)) {
-        problem.SetManifold(old_second, nullptr);
-        ordering->AddElementToGroup(old_second, 0);
-      }
-      std::map<int, std::array<double, 2>> in_problem;
-      for (const auto& [id, uv] : plane_points[plane]) {
-        if (problem.HasParameterBlock(point_blocks[plane].at(id))) in_problem[id] = uv;
-      }
-      gauge[plane] = GaugePoints(in_problem);
-      double* const first = point_blocks[plane].at(gauge[plane].first);
-      double* const second = point_blocks[plane].at(gauge[plane].second);
-      problem.SetParameterBlockConstant(first);
-      problem.SetManifold(second, new ceres::SubsetManifold(2, {1}));
-      ordering->AddElementToGroup(second, 1);
     }
     std::erase_if(residuals, [&](const Residual& r) {
       return left_out.count({r.plane, r.point}) > 0;
@@ -868,18 +850,30 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   const CameraIntrinsics estimate =
       CameraIntrinsics::FromPacked(intrinsics, prior.width, prior.height);
   double sum_sq = 0.0;
-  for (const Residual& r : residuals) sum_sq += error_px(r).squaredNorm();
+  for (const Residual& r : residuals) sum_sq += error_px(r)->squaredNorm();
   result.rms_px = std::sqrt(sum_sq / (2.0 * residuals.size()));
   result.frames_used = int(posed.size());
   result.cam_from_world.resize(material.frame_count);
   for (int f : posed) result.cam_from_world[f] = ToIsometry(frame_poses[f]);
   for (size_t p = 0; p < tracks.size(); ++p) {
-    if (!problem.HasParameterBlock(plane_blocks[p])) continue;
+    if (!plane_blocks[p] || !problem.HasParameterBlock(plane_blocks[p])) continue;
+    const Eigen::Isometry3d world_from_reference =
+        ToIsometry(frame_poses[plane_reference[p]]).inverse();
+    std::map<int, Eigen::Vector3d> world;
+    for (const auto& [id, ray] : rays[p]) {
+      if (const auto x = PointOnRay(plane_params[p].data(), ray.data())) {
+        world[id] = world_from_reference * *x;
+      }
+    }
+    if (world.empty()) continue;
     PlaneEstimate plane;
     plane.id = used[p]->id;
-    plane.world_from_plane = ToIsometry(plane_poses[p]);
-    for (const auto& [id, uv] : plane_points[p])
-      plane.points.emplace_back(id, Eigen::Vector2d(uv[0], uv[1]));
+    const Eigen::Vector3d m(plane_params[p][0], plane_params[p][1], plane_params[p][2]);
+    plane.world_from_plane = PlaneFrame(world, world_from_reference.linear() * m.normalized());
+    const Eigen::Isometry3d plane_from_world = plane.world_from_plane.inverse();
+    for (const auto& [id, x] : world) {
+      plane.points.emplace_back(id, (plane_from_world * x).head<2>());
+    }
     result.planes.push_back(std::move(plane));
   }
 

@@ -1,6 +1,6 @@
 // Box 10: self-calibrating Levenberg-Marquardt. Intrinsics, distortion, every dominant
-// plane's pose, every frame's pose and every tracked point's coordinates in its plane,
-// estimated jointly from the REAL tracks of the planes (box 9), with plumb-line residuals
+// plane, every frame's pose and every tracked point (on its ray in the plane's reference
+// view), estimated jointly from the REAL tracks of the planes (box 9), with plumb-line residuals
 // from box 2, gravity residuals where the body is at rest, and a weak prior from the last
 // accepted calibration. A plane seen from several orientations fixes the intrinsics
 // (Triggs 1998, Zhang 2000); nothing here is measured on anything rendered with the

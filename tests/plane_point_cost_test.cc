@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <sstream>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -30,56 +31,83 @@ std::array<double, kNumIntrinsics> Intrinsics() {
 
 // The hand-worked Jacobian against central differences of the residual, for poses from
 // nearly the identity (where the rotation's derivative takes its series form) to large
-// turns.
+// turns, of both the frame and the plane's reference view.
 TEST(PlanePointCost, JacobianAgreesWithCentralDifferences) {
-  const std::vector<std::array<double, 6>> cams = {
+  const std::vector<std::array<double, 6>> poses = {
       {1e-7, -2e-7, 5e-8, 0.05, -0.02, 0.1},
       {0.1, -0.25, 0.05, 0.2, 0.1, 0.3},
       {-0.6, 1.1, 0.4, -0.3, 0.2, 0.5},
   };
-  const std::vector<std::array<double, 6>> planes = {
-      {0.0, 0.0, 0.0, -0.2, 0.1, 2.0},
-      {0.3, -0.2, 0.9, 0.1, -0.3, 2.5},
-      {1.4, 0.2, -0.3, 0.4, 0.2, 1.8},
-  };
+  const std::vector<std::array<double, 3>> planes = {
+      {0.05, -0.02, 0.5}, {0.3, -0.2, 0.4}, {-0.1, 0.45, 0.2}};
   int checked = 0;
-  for (std::array<double, 6> cam : cams) {
-    for (std::array<double, 6> plane : planes) {
-      std::array<double, kNumIntrinsics> intrinsics = Intrinsics();
-      std::array<double, 2> uv = {0.31, -0.22};
-      const PlanePointCost cost(Eigen::Vector2d(300.0, 250.0));
-      std::ostringstream where;
-      where << "camera " << cam[0] << " " << cam[1] << " " << cam[2] << ", plane " << plane[0]
-            << " " << plane[1] << " " << plane[2];
-      // Poses that put the point behind the camera are left out.
-      if (test::ExpectJacobianMatchesCentralDifferences(
-              cost, {intrinsics.data(), cam.data(), plane.data(), uv.data()}, where.str())) {
-        ++checked;
+  for (std::array<double, 6> cam : poses) {
+    for (std::array<double, 6> reference : poses) {
+      for (std::array<double, 3> plane : planes) {
+        std::array<double, kNumIntrinsics> intrinsics = Intrinsics();
+        std::array<double, 2> ray = {0.31, -0.22};
+        const PlanePointCost cost(Eigen::Vector2d(300.0, 250.0));
+        std::ostringstream where;
+        where << "camera " << cam[0] << " " << cam[1] << " " << cam[2] << ", reference "
+              << reference[0] << " " << reference[1] << " " << reference[2] << ", plane "
+              << plane[0] << " " << plane[1] << " " << plane[2];
+        // Poses that put the point behind the camera are left out.
+        if (test::ExpectJacobianMatchesCentralDifferences(
+                cost, {intrinsics.data(), cam.data(), reference.data(), plane.data(), ray.data()},
+                where.str())) {
+          ++checked;
+        }
       }
     }
   }
-  EXPECT_GE(checked, 6) << "most poses must see the point";
+  EXPECT_GE(checked, 15) << "most poses must see the point";
 }
 
-// The residual by hand: a fronto-parallel plane at depth 2 seen by an identity camera puts
-// (u, v) at normalized (u / 2, v / 2); with no distortion the pixel is f x + c.
+TEST(ReferenceRayCost, JacobianAgreesWithCentralDifferences) {
+  std::array<double, kNumIntrinsics> intrinsics = Intrinsics();
+  for (std::array<double, 2> ray :
+       {std::array{0.0, 0.0}, std::array{0.31, -0.22}, std::array{-0.6, 0.45}}) {
+    EXPECT_TRUE(test::ExpectJacobianMatchesCentralDifferences(
+        ReferenceRayCost(Eigen::Vector2d(300.0, 250.0)), {intrinsics.data(), ray.data()},
+        "ray " + std::to_string(ray[0]) + " " + std::to_string(ray[1])));
+  }
+}
+
+// The residual by hand: the plane z = 2 (m = (0, 0, 0.5)) in view k puts the ray
+// (0.25, -0.125) at (0.5, -0.25, 2) there; with no distortion the pixel is f x + c.
 TEST(PlanePointCost, ResidualIsThePinholeProjectionWithoutDistortion) {
   std::array<double, kNumIntrinsics> intrinsics{};
   intrinsics[kFx] = 400.0;
   intrinsics[kFy] = 410.0;
   intrinsics[kCx] = 320.0;
   intrinsics[kCy] = 240.0;
-  const std::array<double, 6> cam = {0, 0, 0, 0, 0, 0};
-  const std::array<double, 6> plane = {0, 0, 0, 0, 0, 2.0};
-  const std::array<double, 2> uv = {0.5, -0.25};
+  const std::array<double, 6> identity = {0, 0, 0, 0, 0, 0};
+  const std::array<double, 3> plane = {0.0, 0.0, 0.5};
+  const std::array<double, 2> ray = {0.25, -0.125};
   const PlanePointCost cost(Eigen::Vector2d(100.0, 100.0));
   double residual[2];
-  ASSERT_TRUE(cost.Residual(intrinsics.data(), cam.data(), plane.data(), uv.data(), residual));
+  ASSERT_TRUE(cost.Residual(intrinsics.data(), identity.data(), identity.data(), plane.data(),
+                            ray.data(), residual));
   EXPECT_NEAR(residual[0], 400.0 * 0.25 + 320.0 - 100.0, 1e-12);
   EXPECT_NEAR(residual[1], 410.0 * -0.125 + 240.0 - 100.0, 1e-12);
-  // Behind the camera: no residual.
-  const std::array<double, 6> behind = {0, 0, 0, 0, 0, -2.0};
-  EXPECT_FALSE(cost.Residual(intrinsics.data(), cam.data(), behind.data(), uv.data(), residual));
+  // The camera half a unit to the right of the world: the point at (0, -0.25, 2) in it.
+  const std::array<double, 6> right = {0, 0, 0, -0.5, 0, 0};
+  ASSERT_TRUE(cost.Residual(intrinsics.data(), right.data(), identity.data(), plane.data(),
+                            ray.data(), residual));
+  EXPECT_NEAR(residual[0], 320.0 - 100.0, 1e-12);
+  EXPECT_NEAR(residual[1], 410.0 * -0.125 + 240.0 - 100.0, 1e-12);
+  // View k half a unit to the left of the world instead: the point's world is the same.
+  const std::array<double, 6> left = {0, 0, 0, 0.5, 0, 0};
+  ASSERT_TRUE(cost.Residual(intrinsics.data(), identity.data(), left.data(), plane.data(),
+                            ray.data(), residual));
+  EXPECT_NEAR(residual[0], 320.0 - 100.0, 1e-12);
+  // Behind the camera, or on the ray's horizon: no residual.
+  const std::array<double, 6> beyond = {0, 0, 0, 0, 0, -3.0};
+  EXPECT_FALSE(cost.Residual(intrinsics.data(), beyond.data(), identity.data(), plane.data(),
+                             ray.data(), residual));
+  const std::array<double, 3> edge_on = {0.0, 0.5, 0.0625};  // m . (a, b, 1) = 0.
+  EXPECT_FALSE(cost.Residual(intrinsics.data(), identity.data(), identity.data(), edge_on.data(),
+                             ray.data(), residual));
 }
 
 }  // namespace

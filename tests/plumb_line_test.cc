@@ -170,10 +170,10 @@ TEST(PlumbLine, MarginalCovarianceAgreesWithCeresDenseSvd) {
 }
 
 // The same on a problem laid out as box 10 lays out its own: a plane's points seen from
-// several views (eliminated, but for the one that fixes the plane's turn), the views and the
-// plane's pose in group 1, a view and a point held for the gauge, straight lines as well;
-// fx, fy, cx, cy, k1, k2 free: the complement gathers eliminated points and lines, and
-// keeps views, a plane, a point held to its axis and the intrinsics.
+// several views, each point on its ray in the plane's reference view (eliminated), the
+// views and the plane in group 1, the reference view held and the plane's distance from it
+// (the gauge), straight lines as well; fx, fy, cx, cy, k1, k2 free: the complement gathers
+// eliminated rays and lines, and keeps views, a plane and the intrinsics.
 TEST(PlumbLine, MarginalCovarianceOfAPlaneSeenFromSeveralViewsAgreesWithCeresDenseSvd) {
   const CameraIntrinsics truth = test::SonnarLikeCamera(-0.2, 0.05);
   cv::RNG rng(3);
@@ -194,36 +194,41 @@ TEST(PlumbLine, MarginalCovarianceOfAPlaneSeenFromSeveralViewsAgreesWithCeresDen
     const Eigen::Vector3d shift = ahead - Eigen::AngleAxisd(turn.norm(), turn.normalized()) * ahead;
     views.push_back({turn.x(), turn.y(), turn.z(), shift.x(), shift.y(), shift.z()});
   }
-  const std::array<double, 6> plane = {0.0, 0.0, 0.0, -0.8, -0.6, 2.0};
+  const std::array<double, 3> plane = {0.0, 0.0, 0.5};  // z = 2 in view 0.
 
-  ParameterArena arena(kNumIntrinsics + 6 * (views.size() + 1) + 2 * points.size() +
+  ParameterArena arena(kNumIntrinsics + 6 * views.size() + 3 + 2 * points.size() +
                        PlumbLineParameterCount(lines));
   double* const intrinsics = arena.Add(truth.Packed());
   std::vector<double*> view_blocks;
   for (const auto& view : views) view_blocks.push_back(arena.Add(view));
   double* const plane_block = arena.Add(plane);
-  std::vector<double*> point_blocks;
+  std::vector<double*> ray_blocks;
   for (const Eigen::Vector2d& point : points) {
-    point_blocks.push_back(arena.Add(std::array{point.x(), point.y()}));
+    ray_blocks.push_back(arena.Add(std::array{(point.x() - 0.8) / 2.0, (point.y() - 0.6) / 2.0}));
   }
   ceres::Problem problem;
   auto* ordering = new ceres::ParameterBlockOrdering;
-  for (double* view : view_blocks) {
-    for (double* point : point_blocks) {
-      double pixel[2];
-      const double* at[] = {intrinsics, view, plane_block, point};
-      ASSERT_TRUE(PlanePointCost(Eigen::Vector2d::Zero()).Evaluate(at, pixel, nullptr));
-      const Eigen::Vector2d noisy(pixel[0] + rng.gaussian(0.2), pixel[1] + rng.gaussian(0.2));
-      problem.AddResidualBlock(new PlanePointCost(noisy), new ceres::CauchyLoss(1.0), intrinsics,
-                               view, plane_block, point);
+  const auto noisy = [&](const Eigen::Vector2d& pixel) {
+    return Eigen::Vector2d(pixel.x() + rng.gaussian(0.2), pixel.y() + rng.gaussian(0.2));
+  };
+  for (double* ray : ray_blocks) {
+    Eigen::Vector2d pixel;
+    const double* seen[] = {intrinsics, ray};
+    ASSERT_TRUE(ReferenceRayCost(Eigen::Vector2d::Zero()).Evaluate(seen, pixel.data(), nullptr));
+    problem.AddResidualBlock(new ReferenceRayCost(noisy(pixel)), new ceres::CauchyLoss(1.0),
+                             intrinsics, ray);
+    for (size_t v = 1; v < view_blocks.size(); ++v) {
+      ASSERT_TRUE(PlanePointCost(Eigen::Vector2d::Zero())
+                      .Residual(intrinsics, view_blocks[v], view_blocks[0], plane_block, ray,
+                                pixel.data()));
+      problem.AddResidualBlock(new PlanePointCost(noisy(pixel)), new ceres::CauchyLoss(1.0),
+                               intrinsics, view_blocks[v], view_blocks[0], plane_block, ray);
     }
+    ordering->AddElementToGroup(ray, 0);
   }
-  for (double* point : point_blocks) ordering->AddElementToGroup(point, point == point_blocks[1]);
-  problem.SetParameterBlockConstant(point_blocks[0]);
-  problem.SetManifold(point_blocks[1], new ceres::SubsetManifold(2, {1}));
   problem.SetParameterBlockConstant(view_blocks[0]);
   for (double* view : view_blocks) ordering->AddElementToGroup(view, 1);
-  problem.SetManifold(plane_block, new ceres::SubsetManifold(6, {5}));
+  problem.SetManifold(plane_block, new ceres::SphereManifold<3>());
   ordering->AddElementToGroup(plane_block, 1);
   AddPlumbLineResiduals(lines, truth, 1.0, intrinsics, &problem, ordering, &arena);
   problem.SetManifold(intrinsics, new ceres::SubsetManifold(kNumIntrinsics, {kP1, kP2, kK3}));
