@@ -194,8 +194,10 @@ FrameSnapshot MotionHalf::Process(LensFrame frame, std::optional<CalibrationJob>
 std::shared_ptr<const AttemptOutcome> MotionHalf::Judge(const CalibrationJob& job,
                                                         const SelfCalibrationResult& result) {
   job_pending_ = false;
-  if (result.usable) last_solved_.emplace(job.view_times, result);
-  history_.Judge(job.t_ns, result);
+  const Verdict verdict = history_.Judge(job.t_ns, result);
+  if (verdict == Verdict::kAccepted || verdict == Verdict::kNewRegime) {
+    last_solved_.emplace(job.view_times, result);
+  }
   auto outcome = std::make_shared<AttemptOutcome>();
   outcome->record = history_.attempts().back();
   outcome->view_times = job.view_times;
@@ -206,7 +208,6 @@ std::shared_ptr<const AttemptOutcome> MotionHalf::Judge(const CalibrationJob& jo
           AttachBoard(plane.id, plane.world_from_plane, plane.points, options_.board));
     }
   }
-  const Verdict verdict = outcome->record.verdict;
   if ((verdict == Verdict::kAccepted || verdict == Verdict::kNewRegime) &&
       EstimatesDistortion(outcome->record)) {
     distortion_accepted_ = true;

@@ -182,7 +182,9 @@ class MotionHalf {
   std::string last_degraded_;  // Why the newest unfit frame was.
   bool job_pending_ = false;
   int64_t frames_ = 0;
-  // The newest usable attempt and its views' times: where the next solve starts.
+  // The newest attempt the history took (accepted, or founding a regime) and its views'
+  // times: where the next solve starts. Not one it rejected: the attempts that confirm a
+  // jump must each reach it on their own (docs/calibration.md, "Outdoors", session 26).
   std::optional<std::pair<std::vector<int64_t>, SelfCalibrationResult>> last_solved_;
 };
 
