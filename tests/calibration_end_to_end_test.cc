@@ -40,17 +40,6 @@ ScenarioRun RunScenario(const std::string& spec, const std::optional<CameraIntri
   return run;
 }
 
-// The wrong start: fx, fy 5% too large, cx +15 px, cy -10 px, no distortion.
-CameraIntrinsics WrongStart(const CameraIntrinsics& truth) {
-  CameraIntrinsics wrong = truth;
-  wrong.fx *= 1.05;
-  wrong.fy *= 1.05;
-  wrong.cx += 15.0;
-  wrong.cy -= 10.0;
-  wrong.k1 = wrong.k2 = wrong.k3 = wrong.p1 = wrong.p2 = 0.0;
-  return wrong;
-}
-
 int Count(const RunReport& report, Verdict verdict) {
   const auto found = report.verdicts.find(verdict);
   return found == report.verdicts.end() ? 0 : found->second;
@@ -59,7 +48,8 @@ int Count(const RunReport& report, Verdict verdict) {
 void ExpectConvergesFromAWrongStart(const std::string& lens) {
   const Scenario scenario = ParseScenarioSpec("office,lens=" + lens);
   const CameraIntrinsics truth = MakeSimulatedSequence(scenario)->ground_truth()->front().intrinsics;
-  const ScenarioRun run = RunScenario("office,lens=" + lens + ",seconds=20", WrongStart(truth));
+  const ScenarioRun run =
+      RunScenario("office,lens=" + lens + ",seconds=20", test::WrongStart(truth));
   ASSERT_TRUE(run.report.truth);
   const CalibrationError& e = run.report.truth->final;
   EXPECT_LT(std::abs(e.fx_percent), 0.5) << "fx within 0.5% of the truth after 20 s";
@@ -71,7 +61,7 @@ void ExpectConvergesFromAWrongStart(const std::string& lens) {
   EXPECT_GT(run.report.final_rms_px, 0.0);
   EXPECT_LT(run.report.final_rms_px, 0.3) << "reprojection error below 0.3 px RMS";
   // A circular estimator would stay at the start: the start is far outside the tolerance.
-  const CalibrationError start = CompareCalibration(WrongStart(truth), truth);
+  const CalibrationError start = CompareCalibration(test::WrongStart(truth), truth);
   EXPECT_FALSE(CalibrationTolerance{}.Admits(start));
   // The history file holds every attempt the run judged.
   EXPECT_EQ(int(run.stored.attempts.size()), run.report.attempts);

@@ -19,15 +19,7 @@ namespace autocal {
 namespace {
 
 // The start the issue asks for: focal 5% long, principal point off, no distortion.
-CameraIntrinsics WrongStart() {
-  CameraIntrinsics c = test::SonnarLikeCamera();
-  c.fx *= 1.05;
-  c.fy *= 1.05;
-  c.cx += 15.0;
-  c.cy -= 10.0;
-  c.k1 = c.k2 = 0.0;
-  return c;
-}
+CameraIntrinsics WrongStart() { return test::WrongStart(test::SonnarLikeCamera()); }
 
 // Camera looking along body x (forward), body z up: OpenCV axes in the body frame.
 Eigen::Matrix3d BodyFromCam() {

@@ -41,6 +41,16 @@ CameraIntrinsics SonnarLikeCamera(double k1, double k2) {
   return c;
 }
 
+CameraIntrinsics WrongStart(const CameraIntrinsics& truth) {
+  CameraIntrinsics wrong = truth;
+  wrong.fx *= 1.05;
+  wrong.fy *= 1.05;
+  wrong.cx += 15.0;
+  wrong.cy -= 10.0;
+  wrong.k1 = wrong.k2 = wrong.k3 = wrong.p1 = wrong.p2 = 0.0;
+  return wrong;
+}
+
 CameraIntrinsics FromOpenCv(const cv::Mat& camera_matrix, const cv::Mat& distortion,
                             cv::Size size) {
   CameraIntrinsics c;

@@ -32,6 +32,10 @@ class TempDir {
 // distortion k1, k2.
 CameraIntrinsics SonnarLikeCamera(double k1 = -0.3, double k2 = 0.1);
 
+// The calibration issue's wrong start from `truth`: fx, fy 5% too large, cx +15 px,
+// cy -10 px, no distortion.
+CameraIntrinsics WrongStart(const CameraIntrinsics& truth);
+
 // OpenCV's camera matrix and distortion vector (k1, k2, p1, p2[, k3]), as cv::calibrateCamera
 // returns them, for an image of `size`.
 CameraIntrinsics FromOpenCv(const cv::Mat& camera_matrix, const cv::Mat& distortion,
