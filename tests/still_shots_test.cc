@@ -76,17 +76,6 @@ RenderedShots RenderOfficeShots(const std::string& lens, const std::string& reso
   return shots;
 }
 
-// fx, fy 5% too long, cx +15 px, cy -10 px, no distortion: DESIGN's wrong start.
-CameraIntrinsics WrongPrior(const CameraIntrinsics& truth) {
-  CameraIntrinsics prior = truth;
-  prior.fx *= 1.05;
-  prior.fy *= 1.05;
-  prior.cx += 15.0;
-  prior.cy -= 10.0;
-  prior.k1 = prior.k2 = prior.p1 = prior.p2 = prior.k3 = 0.0;
-  return prior;
-}
-
 double AngleBetweenDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle() * 180.0 / M_PI;
 }
@@ -117,7 +106,7 @@ class StillShotsFromWrongPrior : public ::testing::TestWithParam<StillShotCase> 
 TEST_P(StillShotsFromWrongPrior, ConvergeToTheTruthOnTrueScenePlanes) {
   const StillShotCase& c = GetParam();
   const RenderedShots shots = RenderOfficeShots(c.lens, "640x480", c.facing_deg);
-  const CameraIntrinsics prior = WrongPrior(shots.truth);
+  const CameraIntrinsics prior = test::WrongStart(shots.truth);
   StillShotOptions options;
   options.lens.pool_per_cell = 1000;
   options.calibration.min_frames = 3;
@@ -201,7 +190,7 @@ TEST(StillShots, RunJudgesTheAttemptsAndComparesWithTheTruth) {
   session.camera_device = "simulated still shots";
   session.width = shots.truth.width;
   session.height = shots.truth.height;
-  session.premission_calibration = WrongPrior(shots.truth);
+  session.premission_calibration = test::WrongStart(shots.truth);
   {
     RecordingWriter writer(dir / "shots", session);
     for (size_t i = 0; i < shots.images.size(); ++i) {
@@ -223,7 +212,7 @@ TEST(StillShots, RunJudgesTheAttemptsAndComparesWithTheTruth) {
   for (const std::string& s : steps) std::printf("  %s\n", s.c_str());
 
   EXPECT_EQ(report.frames, shots.images.size());
-  EXPECT_EQ(report.prior, WrongPrior(shots.truth));
+  EXPECT_EQ(report.prior, test::WrongStart(shots.truth));
   ASSERT_TRUE(report.truth.has_value());
   PrintError("output", report.truth->final);
   std::printf(
