@@ -102,6 +102,7 @@ void AccelPlot::setSamples(const std::vector<AccelSample>& samples, int64_t star
   value_axis_->setTickInterval(value_tick);
   value_axis_->setLabelFormat(LabelFormat(value_tick));
   chart()->setTitle(t_.empty() ? tr("No accelerometer data in this recording") : QString());
+  drawn_.reset();
   redraw();
 }
 
@@ -191,15 +192,20 @@ void AccelPlot::redraw() {
   const double span = duration_s_ > 0.0 ? std::min(window_s_, duration_s_) : window_s_;
   const double t0 = std::clamp(cursor_s_ - span / 2.0, 0.0, std::max(0.0, duration_s_ - span));
   const double t1 = t0 + span;
-  time_axis_->setRange(t0, t1);
-  const double time_tick = NiceTickInterval(span, 10);
-  time_axis_->setTickInterval(time_tick);
-  time_axis_->setLabelFormat(LabelFormat(time_tick));
-
-  const SampleRange range = VisibleRange(t_, t0, t1);
   const int columns = std::max(1, static_cast<int>(chart()->plotArea().width()));
-  for (size_t axis = 0; axis < 3; ++axis) {
-    series_[axis]->replace(DecimateMinMax(t_, values_[axis], range, columns));
+  // While the window holds still (a recording shorter than it, or the cursor near an end)
+  // only the cursor moves: the curves are not replaced, so not drawn again.
+  const DrawnSpan drawn{t0, t1, columns};
+  if (drawn != drawn_) {
+    drawn_ = drawn;
+    time_axis_->setRange(t0, t1);
+    const double time_tick = NiceTickInterval(span, 10);
+    time_axis_->setTickInterval(time_tick);
+    time_axis_->setLabelFormat(LabelFormat(time_tick));
+    const SampleRange range = VisibleRange(t_, t0, t1);
+    for (size_t axis = 0; axis < 3; ++axis) {
+      series_[axis]->replace(DecimateMinMax(t_, values_[axis], range, columns));
+    }
   }
   cursor_->replace(QVector<QPointF>{{cursor_s_, y_min_}, {cursor_s_, y_max_}});
 }

@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <QElapsedTimer>
@@ -75,6 +76,13 @@ class AccelPlot : public QChartView {
   void scheduleRedraw();
   void redraw();
 
+  // The time span and pixel columns the curves were last drawn for.
+  struct DrawnSpan {
+    double t0, t1;
+    int columns;
+    bool operator==(const DrawnSpan&) const = default;
+  };
+
   std::vector<double> t_;  // Seconds since the start.
   std::array<std::vector<double>, 3> values_;
   double duration_s_ = 0.0;
@@ -89,6 +97,7 @@ class AccelPlot : public QChartView {
   QTimer redraw_timer_;
   QElapsedTimer since_redraw_;
   bool redraw_when_shown_ = false;
+  std::optional<DrawnSpan> drawn_;
 };
 
 }  // namespace autocal

@@ -2,9 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
+#include <tuple>
+#include <utility>
 
 #include <QFontMetricsF>
+#include <QImage>
 #include <QObject>
 #include <QPainter>
 #include <QPainterPath>
@@ -34,7 +38,7 @@ QPolygonF MapPolyline(const QTransform& to_widget, const Polyline& points) {
 }
 
 QPen Pen(const QColor& color, double width, Qt::PenStyle style = Qt::SolidLine) {
-  QPen pen(color, width, style, Qt::RoundCap, Qt::RoundJoin);
+  QPen pen(color, width, style, Qt::RoundCap, Qt::BevelJoin);
   pen.setCosmetic(true);
   return pen;
 }
@@ -46,6 +50,36 @@ void DrawPolyline(QPainter* painter, const QPolygonF& line, const QColor& color,
   painter->drawPolyline(line);
   painter->setPen(Pen(color, width, style));
   painter->drawPolyline(line);
+}
+
+// A dot with a dark rim, drawn once for each colour, size and pixel ratio and then copied:
+// drawn as antialiased ellipses, 300 tracks' and the hinges' dots cost the GUI thread more
+// than the frame under them. Hinge colours come from 8-bit hues, some 500 of them.
+const QImage& Dot(const QColor& fill, double radius, qreal pixel_ratio) {
+  thread_local std::map<std::tuple<QRgb, int, int>, QImage> dots;
+  const auto key = std::make_tuple(fill.rgba(), static_cast<int>(std::lround(radius * 8.0)),
+                                   static_cast<int>(std::lround(pixel_ratio * 8.0)));
+  if (const auto found = dots.find(key); found != dots.end()) return found->second;
+  if (dots.size() >= 2048) dots.clear();
+  const double side = 2.0 * std::ceil(radius + 1.0);  // The rim's half pixel outside, rounded.
+  const int pixels = static_cast<int>(std::ceil(side * pixel_ratio));
+  QImage image(pixels, pixels, QImage::Format_ARGB32_Premultiplied);
+  image.setDevicePixelRatio(pixel_ratio);
+  image.fill(Qt::transparent);
+  QPainter painter(&image);
+  painter.setRenderHint(QPainter::Antialiasing);
+  painter.setPen(Pen(QColor(0, 0, 0, 160), 1.0));
+  painter.setBrush(fill);
+  painter.drawEllipse(QPointF(side / 2.0, side / 2.0), radius, radius);
+  return dots.emplace(key, std::move(image)).first->second;
+}
+
+void DrawDot(QPainter* painter, const QPointF& centre, const QColor& fill, double radius) {
+  const qreal pixel_ratio = painter->device()->devicePixelRatioF();
+  const QImage& dot = Dot(fill, radius, pixel_ratio);
+  const double half = 0.5 * dot.width() / pixel_ratio;
+  // At whole pixels the dot is copied, not resampled; half a pixel off is not seen.
+  painter->drawImage(QPointF(std::round(centre.x() - half), std::round(centre.y() - half)), dot);
 }
 
 void DrawLabel(QPainter* painter, const QPointF& centre, const QString& text, const QColor& color) {
@@ -116,9 +150,17 @@ void PaintOverlay(QPainter* painter, const QTransform& to_widget, const OverlayG
     for (const OverlayGeometry::PlaneOutline& plane : overlay.planes) {
       QColor fill = PlaneColor(plane.id);
       fill.setAlpha(45);
-      painter->setPen(Pen(PlaneColor(plane.id), 2.0));
+      const QPolygonF hull = MapPolyline(to_widget, plane.hull);
+      // The fill's edge is under the outline: filling without antialiasing is not seen, and
+      // it is the cheap way to fill a third of the frame.
+      painter->setRenderHint(QPainter::Antialiasing, false);
+      painter->setPen(Qt::NoPen);
       painter->setBrush(fill);
-      painter->drawPolygon(MapPolyline(to_widget, plane.hull));
+      painter->drawPolygon(hull);
+      painter->setRenderHint(QPainter::Antialiasing);
+      painter->setPen(Pen(PlaneColor(plane.id), 2.0));
+      painter->setBrush(Qt::NoBrush);
+      painter->drawPolygon(hull);
     }
   }
   if (layers & OverlayLayer::kBoards) {
@@ -136,10 +178,8 @@ void PaintOverlay(QPainter* painter, const QTransform& to_widget, const OverlayG
   if (layers & OverlayLayer::kSnakes) {
     for (const OverlayGeometry::Snake& snake : overlay.snakes) {
       DrawPolyline(painter, MapPolyline(to_widget, snake.vertices), kSnakeColor, 1.5);
-      painter->setPen(Pen(QColor(0, 0, 0, 160), 1.0));
       for (size_t i = 1; i + 1 < snake.vertices.size(); ++i) {
-        painter->setBrush(BendColor(snake.bend_deg[i]));
-        painter->drawEllipse(Map(to_widget, snake.vertices[i]), 3.0, 3.0);
+        DrawDot(painter, Map(to_widget, snake.vertices[i]), BendColor(snake.bend_deg[i]), 3.0);
       }
     }
   }
@@ -148,12 +188,10 @@ void PaintOverlay(QPainter* painter, const QTransform& to_widget, const OverlayG
       const QColor color = track.plane_id ? PlaneColor(track.plane_id) : kOffPlaneColor;
       const QPointF now = Map(to_widget, track.now);
       if (track.previous) {
-        painter->setPen(Pen(color, 1.5));
+        painter->setPen(Pen(color, 1.0));
         painter->drawLine(Map(to_widget, *track.previous), now);
       }
-      painter->setPen(Pen(QColor(0, 0, 0, 160), 1.0));
-      painter->setBrush(color);
-      painter->drawEllipse(now, 2.5, 2.5);
+      DrawDot(painter, now, color, 2.5);
     }
   }
   if (layers & OverlayLayer::kGravity && overlay.gravity) {
