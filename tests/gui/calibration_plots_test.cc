@@ -176,7 +176,7 @@ class CalibrationPlotsTest : public QObject {
   void mainWindowOpensHistory();
   void followsAHistoryBeingWritten();
   void drawsAttemptsThatComeWithinTheTimeRange();
-  void staysFastWithHoursOfHistory();
+  void decimatesHoursOfHistory();
   void valueLabelsAreWhole();
   void timeAxesLineUpDownEachColumn();
 
@@ -740,7 +740,7 @@ void CalibrationPlotsTest::drawsAttemptsThatComeWithinTheTimeRange() {
   QTRY_COMPARE(plots.chart(kFx)->markers(MarkerClass::kAccepted)->count(), accepted);
 }
 
-void CalibrationPlotsTest::staysFastWithHoursOfHistory() {
+void CalibrationPlotsTest::decimatesHoursOfHistory() {
   // Two hours at one attempt a second, judged in memory (the file adds nothing here).
   constexpr int kAttempts = 2 * 3600;
   CalibrationHistory history(Premission());
@@ -777,16 +777,8 @@ void CalibrationPlotsTest::staysFastWithHoursOfHistory() {
   plots.setSeries(series);
   QTest::qWait(50);
   plots.redrawNow();
-  // One redraw of all ten charts, and a repaint, within a frame or two at 30 Hz.
-  clock.restart();
-  for (int i = 0; i < 10; ++i) {
-    plots.setCursorTime(60.0 * i);
-    plots.redrawNow();
-    plots.repaint();
-  }
-  const double per_redraw_ms = static_cast<double>(clock.elapsed()) / 10.0;
-  qInfo("redraw and repaint with %d attempts: %.1f ms", kAttempts, per_redraw_ms);
-  QVERIFY2(per_redraw_ms < 66.0, qPrintable(QString::number(per_redraw_ms)));
+  // What a redraw costs is workbench_bench's CalibrationPlotsRedraw; what keeps it cheap is
+  // that no chart draws more than two points a pixel column.
   CalibrationChart& fx = *plots.chart(kFx);
   const int columns = static_cast<int>(fx.chart()->plotArea().width());
   QVERIFY(fx.markers(MarkerClass::kAccepted)->count() <= 2 * columns);
