@@ -1,11 +1,12 @@
 // What the workbench's GUI thread spends a frame. `VideoViewPaint`: one paint of the video
 // view (a 640x480 frame of the simulated office walk, scaled into 1000x750, with the
 // pipeline's own overlay of that frame) by overlay layers. `FollowPipeline`: the whole window
-// following boxes 1-10 over an 8 s 640x480 recording (Playback › Follow the Pipeline, snakes,
-// tracks and planes on), the GUI thread's CPU per distinct frame shown; 33 ms leaves room for the
-// 30 frames a second the workbench issue asks for. `CalibrationPlotsRedraw`: the plots over
-// two hours of history. Run it with a display (xvfb-run) or
-// QT_QPA_PLATFORM=offscreen.
+// following boxes 1-10 over an 8 s 640x480 recording (Playback › Follow the Pipeline,
+// snakes, tracks and planes on), the GUI thread's CPU per distinct frame shown; 33 ms
+// leaves room for the 30 frames a second the workbench issue asks for.
+// `CalibrationPlotsRedraw`: the calibration plots over two hours of history.
+// `AccelPlotLiveUpdate`: the accelerometer plot fed as a live source feeds it. Run it with
+// a display (xvfb-run) or QT_QPA_PLATFORM=offscreen.
 #include <benchmark/benchmark.h>
 #include <time.h>
 
@@ -19,17 +20,20 @@
 #include <QTemporaryDir>
 #include <QTimer>
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "devices/recording_writer.h"
+#include "devices/sequence.h"
 #include "devices/sim/simulator.h"
 #include "pipeline/calibration_history.h"
 #include "pipeline/calibration_pipeline.h"
 #include "pipeline/history_store.h"
 #include "pipeline/overlay_geometry.h"
+#include "widgets/accel_plot.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
 #include "widgets/image_convert.h"
@@ -151,6 +155,35 @@ void CalibrationPlotsRedraw(benchmark::State& state) {
   }
 }
 BENCHMARK(CalibrationPlotsRedraw)->Unit(benchmark::kMillisecond);
+
+// The accelerometer plot as a live source feeds it (MainWindow::showLiveAccel): the last
+// minute of 400 Hz samples, new ones each time, redrawn whole and painted at 1400x300.
+void AccelPlotLiveUpdate(benchmark::State& state) {
+  constexpr double kRateHz = 400.0;
+  constexpr int kMinute = static_cast<int>(60 * kRateHz);
+  std::vector<AccelSample> stream;
+  for (int i = 0; i < 2 * kMinute; ++i) {
+    const double t = i / kRateHz;
+    stream.push_back({static_cast<int64_t>(t * 1e9),
+                      {std::sin(7.0 * t), 0.3 * std::cos(3.0 * t), 9.81 + std::sin(13.0 * t)}});
+  }
+  AccelPlot plot;
+  plot.resize(1400, 300);
+  plot.show();
+  QImage target(plot.size(), QImage::Format_ARGB32_Premultiplied);
+  int newest = kMinute;
+  for (auto _ : state) {
+    newest = newest % kMinute + kMinute;  // A window sliding over the stream, 1/15 s a step.
+    newest += static_cast<int>(kRateHz / 15);
+    const std::vector<AccelSample> minute(stream.begin() + (newest - kMinute),
+                                          stream.begin() + newest);
+    plot.setSamples(minute, minute.front().t_ns, 60.0);
+    plot.setCursorTime(60.0);
+    static_cast<QWidget&>(plot).render(&target);  // QGraphicsView hides it.
+    benchmark::DoNotOptimize(target.constBits());
+  }
+}
+BENCHMARK(AccelPlotLiveUpdate)->Unit(benchmark::kMillisecond);
 
 double ThreadCpuSeconds() {
   timespec now;

@@ -45,7 +45,7 @@ AccelPlot::AccelPlot(QWidget* parent) : QChartView(parent) {
   for (size_t axis = 0; axis < 3; ++axis) {
     series_[axis] = new QLineSeries;
     series_[axis]->setName(names[axis]);
-    series_[axis]->setPen(QPen(colors[axis], 1.5));
+    series_[axis]->setPen(QPen(colors[axis], 1.0));
     chart->addSeries(series_[axis]);
     series_[axis]->attachAxis(time_axis_);
     series_[axis]->attachAxis(value_axis_);
