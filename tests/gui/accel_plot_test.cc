@@ -90,13 +90,21 @@ void AccelPlotTest::curvesFollowTheWindowAndHoldStillWithIt() {
   plot.resize(600, 300);
   QTRY_COMPARE(replaced.count(), at_end + 2);
 
-  // New samples (a live source's) are drawn even where the window holds still.
+  // New samples (a live source's, a minute of them each time) are drawn even where the
+  // window holds still.
   plot.setSamples(Ramp(8.0, 2.0), 0, 8.0);
   plot.setCursorTime(2.0);
   QTRY_COMPARE(plot.drawnCursorTime(), 2.0);
   QCOMPARE(plot.visibleStart(), 0.0);
   QCOMPARE(plot.visibleEnd(), 5.0);
   QCOMPARE(a_x.points().back().y(), 2.0 * a_x.points().back().x());
+  const int before_new = replaced.count();
+  plot.setSamples(Ramp(8.0, 3.0), 0, 8.0);
+  plot.setCursorTime(2.0);
+  QTRY_COMPARE(replaced.count(), before_new + 1);
+  QCOMPARE(plot.visibleStart(), 0.0);
+  QCOMPARE(plot.visibleEnd(), 5.0);
+  QCOMPARE(a_x.points().back().y(), 3.0 * a_x.points().back().x());
   QVERIFY(a_x.points().back().x() <= 5.0 + 1.5 / kRateHz);
 }
 
