@@ -528,8 +528,7 @@ void OverlayTest::redrawRateWhilePipelineRuns() {
                            kFrameTimeoutMs);
   SaveScreenshot(window->grab().toImage(), QStringLiteral("workbench_follow.png"));
   // Following shows most of the pipeline's frames, not a few now and then: half of them is
-  // a wide margin over the 0.87 seen on CI at load 6, when the window cost three times what
-  // it costs now.
+  // a wide margin over the 0.87 seen on CI at load 6.
   QVERIFY2(2 * painted >= uint64_t(done),
            qPrintable(QStringLiteral("%1 frames shown of the %2 the pipeline made, load %3")
                           .arg(painted)
