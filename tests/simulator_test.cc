@@ -124,6 +124,64 @@ INSTANTIATE_TEST_SUITE_P(
       return std::string(param_info.param.lens) + "_" + std::to_string(param_info.index);
     });
 
+// A rolling shutter turning at 90 deg/s: each corner lies where the pose of the row it
+// lands on projects it (found by iterating on the row), and visibly off where the middle
+// row's pose alone would put it, more so the farther its row is from the middle.
+TEST(RollingShutterTest, EachRowSeesTheSceneFromItsOwnPose) {
+  Scenario s;
+  s.scene = "checkerboard";
+  s.motion.type = "static";
+  const auto scene = BuildScene(s);
+  const Plane& plane = scene->planes[0];
+  const CheckerboardOptions& board = s.checkerboard;
+  const CameraIntrinsics k = LensIntrinsics("tessar", 640, 480);
+  constexpr double kYawDegPerRow = 90.0 * 0.030 / 480;  // 90 deg/s, 30 ms readout.
+  const Eigen::Isometry3d middle = LookingAt({kCheckerboardDistanceM, 0.0, 1.0}, 0.45, 0.0, 0.0);
+  const auto pose_of_row = [&](double v) {  // Turning in place about the camera's y axis.
+    Eigen::Isometry3d pose = middle;
+    pose.linear() *=
+        Eigen::AngleAxisd(kYawDegPerRow * (v - 239.5) * M_PI / 180, Eigen::Vector3d::UnitY())
+            .toRotationMatrix();
+    return pose;
+  };
+  RenderOptions options;
+  for (int v = 0; v < k.height; ++v) options.world_from_cam_by_row.push_back(pose_of_row(v));
+  const RenderedFrame frame = Renderer(scene).Render(k, middle, options);
+
+  cv::Mat grey;
+  cv::cvtColor(frame.image, grey, cv::COLOR_BGR2GRAY);
+  const cv::Size pattern(board.squares_x - 1, board.squares_y - 1);
+  std::vector<cv::Point2f> found;
+  ASSERT_TRUE(cv::findChessboardCornersSB(grey, pattern, found,
+                                          cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY));
+  ASSERT_EQ(found.size(), static_cast<size_t>(pattern.area()));
+  double max_err = 0.0, max_shift = 0.0;
+  for (int j = 0; j < pattern.height; ++j) {
+    for (int i = 0; i < pattern.width; ++i) {
+      const Eigen::Vector3d corner =
+          plane.Point((i + 2) * board.square_m, (j + 2) * board.square_m);
+      const auto project_from = [&](double row) {
+        return Project(k, pose_of_row(row).inverse() * corner);
+      };
+      Eigen::Vector2d expected = project_from(239.5);
+      for (int it = 0; it < 10; ++it) expected = project_from(expected.y());
+      const Eigen::Vector2d global_shutter = project_from(239.5);
+      double best = std::numeric_limits<double>::infinity();
+      for (const cv::Point2f& p : found) {
+        best = std::min(best, std::hypot(p.x - expected.x(), p.y - expected.y()));
+      }
+      max_err = std::max(max_err, best);
+      max_shift = std::max(max_shift, (expected - global_shutter).norm());
+      // About fx * 90 deg/s * 30 ms / 480 rows per row from the middle.
+      EXPECT_NEAR((expected - global_shutter).norm(),
+                  k.fx * kYawDegPerRow * M_PI / 180 * std::abs(expected.y() - 239.5),
+                  0.25 + 0.1 * (expected - global_shutter).norm());
+    }
+  }
+  EXPECT_LT(max_err, 0.3);
+  EXPECT_GT(max_shift, 3.0);  // Else the test could not tell the shutters apart.
+}
+
 // Ray-rectangle intersection written independently of the renderer.
 int PlaneSeenBy(const Scene& scene, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
                 double* margin_m) {
@@ -602,12 +660,43 @@ TEST(ScenarioTest, OverridesAndSpecs) {
   EXPECT_THROW(ApplyScenarioOverride(&s, "lens", "pinhole"), Error);
   EXPECT_THROW(ApplyScenarioOverride(&s, "colour", "red"), Error);
   EXPECT_THROW(ApplyScenarioOverride(&s, "seconds", "ten"), Error);
+  ApplyScenarioOverride(&s, "readout_ms", "30");
+  EXPECT_EQ(s.image.readout_ms, 30.0);
+  EXPECT_THROW(ApplyScenarioOverride(&s, "readout_ms", "70"), Error);  // Over 1/15 s.
   EXPECT_EQ(s.accelerometer.rate_hz, 800.0);  // Failed overrides change nothing.
   EXPECT_THROW(ParseScenarioSpec("office,lens"), Error);
   EXPECT_THROW(ParseScenarioSpec("nowhere"), Error);
 }
 
 // --- The sequence -------------------------------------------------------------------------
+
+// With a rolling shutter each row is the row a global shutter sees at that row's time, the
+// middle row at the frame's (its ground truth); rows read one every readout / height.
+TEST_F(SimulatorTest, RollingShutterRowsAreTakenAroundTheFramesTime) {
+  Scenario s = Small("office");
+  s.image.readout_ms = 30.0;
+  const auto sequence = MakeSimulatedSequence(s);
+  const Trajectory trajectory(s.motion, s.scene);
+  const Renderer renderer(office_);
+  const size_t index = 40;
+  const GroundTruthFrame& truth = sequence->ground_truth()->at(index);
+  const double t = s.SecondsAt(truth.t_ns);
+  const cv::Mat labels = *sequence->LoadPlaneLabels(index);
+  const auto global_at = [&](double row_t) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = trajectory.WorldFromCamAt(row_t);
+    pose.translation() = trajectory.PositionAt(row_t);
+    return renderer.RenderLabels(truth.intrinsics, pose);
+  };
+  const double line_s = 0.030 / s.height;
+  int differing_from_frame_time = 0;
+  for (const int v : {0, s.height / 2, s.height - 1}) {
+    const cv::Mat own = global_at(t + (v - 0.5 * (s.height - 1)) * line_s).row(v);
+    EXPECT_EQ(cv::countNonZero(labels.row(v) != own), 0) << "row " << v;
+    differing_from_frame_time += cv::countNonZero(global_at(t).row(v) != own);
+  }
+  EXPECT_GT(differing_from_frame_time, 0);  // The walk turns enough to tell.
+}
 
 TEST_F(SimulatorTest, SequenceDescribesItselfAndItsTruth) {
   const Scenario s = Small("drift");

@@ -215,6 +215,42 @@ std::vector<CamPlane> CameraPlanes(const Scene& scene, const Eigen::Isometry3d& 
   return planes;
 }
 
+// The scene's planes in the camera of each row: one set for a global shutter, a set per row
+// for a rolling one.
+class RowPlanes {
+ public:
+  RowPlanes(const Scene& scene, const Eigen::Isometry3d& world_from_cam,
+            const std::vector<Eigen::Isometry3d>& world_from_cam_by_row, int height) {
+    if (world_from_cam_by_row.empty()) {
+      all_rows_ = CameraPlanes(scene, world_from_cam);
+      most_ = all_rows_.size();
+      return;
+    }
+    if (static_cast<int>(world_from_cam_by_row.size()) != height) {
+      throw Error("simulator: " + std::to_string(world_from_cam_by_row.size()) +
+                  " row poses for an image of " + std::to_string(height) + " rows");
+    }
+    by_row_.resize(height);
+    cv::parallel_for_(cv::Range(0, height), [&](const cv::Range& rows) {
+      for (int v = rows.start; v < rows.end; ++v) {
+        by_row_[v] = CameraPlanes(scene, world_from_cam_by_row[v]);
+      }
+    });
+    for (const auto& planes : by_row_) most_ = std::max(most_, planes.size());
+  }
+
+  const std::vector<CamPlane>& operator[](int row) const {
+    return by_row_.empty() ? all_rows_ : by_row_[row];
+  }
+  // The most planes any row has (sizes the candidate lists).
+  size_t most() const { return most_; }
+
+ private:
+  std::vector<CamPlane> all_rows_;
+  std::vector<std::vector<CamPlane>> by_row_;
+  size_t most_ = 0;
+};
+
 // Nearest hit of the ray (x, y, 1) among the candidate planes.
 inline Hit Intersect(const std::vector<CamPlane>& planes, const int* candidates, int count,
                      double x, double y) {
@@ -384,13 +420,15 @@ std::shared_ptr<const RayTable> Renderer::Rays(const CameraIntrinsics& intrinsic
 }
 
 cv::Mat Renderer::RenderLabels(const CameraIntrinsics& intrinsics,
-                               const Eigen::Isometry3d& world_from_cam) const {
+                               const Eigen::Isometry3d& world_from_cam,
+                               const std::vector<Eigen::Isometry3d>& world_from_cam_by_row) const {
   const auto rays = Rays(intrinsics);
-  const std::vector<CamPlane> planes = CameraPlanes(*scene_, world_from_cam);
+  const RowPlanes row_planes(*scene_, world_from_cam, world_from_cam_by_row, rays->height);
   cv::Mat labels(rays->height, rays->width, CV_16U);
   cv::parallel_for_(cv::Range(0, rays->height), [&](const cv::Range& rows) {
-    std::vector<int> candidates(planes.size() + 1);
+    std::vector<int> candidates(row_planes.most() + 1);
     for (int v = rows.start; v < rows.end; ++v) {
+      const std::vector<CamPlane>& planes = row_planes[v];
       uint16_t* out = labels.ptr<uint16_t>(v);
       for (int t = 0; t < rays->tiles_per_row; ++t) {
         const int count = rays->Candidates(planes, v, t, candidates.data());
@@ -414,8 +452,8 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
   const auto rays = Rays(intrinsics);
   const RayTable& table = *rays;
   const Scene& scene = *scene_;
-  const std::vector<CamPlane> planes = CameraPlanes(scene, world_from_cam);
   const int width = table.width, height = table.height;
+  const RowPlanes row_planes(scene, world_from_cam, options.world_from_cam_by_row, height);
   cv::Mat colour(height, width, CV_32FC3);
   RenderedFrame frame;
   frame.labels.create(height, width, CV_16U);
@@ -424,10 +462,11 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
   // in blocks of kTileWidth x kBandHeight, whose texels stay in cache.
   const int bands = (height + kBandHeight - 1) / kBandHeight;
   cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& band_range) {
-    std::vector<int> candidates(planes.size() + 1);
+    std::vector<int> candidates(row_planes.most() + 1);
     for (int band = band_range.start; band < band_range.end; ++band) {
       for (int t = 0; t < table.tiles_per_row; ++t) {
         for (int v = band * kBandHeight; v < std::min(height, (band + 1) * kBandHeight); ++v) {
+          const std::vector<CamPlane>& planes = row_planes[v];
           uint16_t* label = frame.labels.ptr<uint16_t>(v);
           cv::Vec3f* out = colour.ptr<cv::Vec3f>(v);
           const int count = table.Candidates(planes, v, t, candidates.data());
@@ -456,8 +495,9 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
   if (s > 1) {
     const double* k = table.dist.data();
     cv::parallel_for_(cv::Range(0, height), [&](const cv::Range& rows) {
-      std::vector<int> candidates(planes.size() + 1);
+      std::vector<int> candidates(row_planes.most() + 1);
       for (int v = rows.start; v < rows.end; ++v) {
+        const std::vector<CamPlane>& planes = row_planes[v];
         const uint16_t* above = frame.labels.ptr<uint16_t>(std::max(0, v - 1));
         const uint16_t* here = frame.labels.ptr<uint16_t>(v);
         const uint16_t* below = frame.labels.ptr<uint16_t>(std::min(height - 1, v + 1));

@@ -8,6 +8,7 @@
 #include <list>
 #include <memory>
 #include <mutex>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -20,6 +21,9 @@ namespace autocal {
 
 struct RenderOptions {
   int supersampling = 3;    // Sub-rays per side where a neighbour sees another plane; 1: none.
+  // Rolling shutter: the camera's pose for each row (as many as the image has rows);
+  // empty: the pose passed to Render for every row (a global shutter).
+  std::vector<Eigen::Isometry3d> world_from_cam_by_row;
   FrameEffects effects;     // Fog, colour fringes, vignetting and noise of this frame.
   uint64_t noise_seed = 1;  // Seeds this frame's sensor noise.
 };
@@ -40,9 +44,10 @@ class Renderer {
   // Thread-safe; the result depends only on the arguments.
   RenderedFrame Render(const CameraIntrinsics& intrinsics, const Eigen::Isometry3d& world_from_cam,
                        const RenderOptions& options) const;
-  // The label image alone (no shading, no effects): cheaper.
-  cv::Mat RenderLabels(const CameraIntrinsics& intrinsics,
-                       const Eigen::Isometry3d& world_from_cam) const;
+  // The label image alone (no shading, no effects): cheaper. `world_from_cam_by_row` as in
+  // RenderOptions.
+  cv::Mat RenderLabels(const CameraIntrinsics& intrinsics, const Eigen::Isometry3d& world_from_cam,
+                       const std::vector<Eigen::Isometry3d>& world_from_cam_by_row = {}) const;
 
  private:
   // The ray table of `intrinsics`, from the cache or built (rays depend only on the

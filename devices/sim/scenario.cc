@@ -92,6 +92,9 @@ bool Scenario::Check(std::string* error) const {
     why << "image.chromatic_px: must be in [-5, 5] pixels, got " << image.chromatic_px;
   } else if (image.supersampling < 1 || image.supersampling > 8) {
     why << "image.supersampling: must be in [1, 8], got " << image.supersampling;
+  } else if (!in(image.readout_ms, 0.0, 1000.0 / fps)) {
+    why << "image.readout_ms: must be in [0, " << 1000.0 / fps << "] (at most a frame period), got "
+        << image.readout_ms;
   } else if (checkerboard.squares_x < 3 || checkerboard.squares_y < 3 ||
              checkerboard.squares_x > 40 || checkerboard.squares_y > 40 ||
              !in(checkerboard.square_m, 0.005, 1.0)) {

@@ -50,6 +50,9 @@ struct ImageOptions {
   double vignetting = 0.35;   // 0: none; 1: full cos^4 falloff of the ray angle.
   double chromatic_px = 0.5;  // Lateral colour: R moved out, B in, by this at the corner.
   int supersampling = 3;      // Sub-rays per side at plane boundaries; 1: none.
+  // Rolling shutter: rows are read top to bottom, one every readout_ms / height, the middle
+  // row at the frame's time (its ground-truth pose). 0: a global shutter.
+  double readout_ms = 0.0;
 };
 
 // A change of the true intrinsics, ramping linearly from `start` to `end` (equal: a step)

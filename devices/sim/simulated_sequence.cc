@@ -78,6 +78,7 @@ class SimulatedSequence : public Sequence {
     options.supersampling = scenario_.image.supersampling;
     options.effects = EffectsAt(scenario_, scenario_.SecondsAt(truth.t_ns));
     options.noise_seed = MixSeed(scenario_.seed, kFrameNoiseStream, index);
+    options.world_from_cam_by_row = RowPoses(truth);
     cv::Mat image = renderer().Render(truth.intrinsics, Pose(truth), options).image;
     const std::lock_guard lock(recent_mutex_);
     recent_.emplace_back(index, image.clone());
@@ -91,7 +92,7 @@ class SimulatedSequence : public Sequence {
 
   std::optional<cv::Mat> LoadPlaneLabels(size_t index) const override {
     const GroundTruthFrame& truth = Truth(index);
-    return renderer().RenderLabels(truth.intrinsics, Pose(truth));
+    return renderer().RenderLabels(truth.intrinsics, Pose(truth), RowPoses(truth));
   }
 
   std::optional<std::string> SceneDescription() const override {
@@ -126,6 +127,22 @@ class SimulatedSequence : public Sequence {
   // workbench's display following its pipeline) does not render it again; copies are
   // handed out, as callers own what they get. More than the runtime's queues hold.
   static constexpr size_t kRecentFrames = 12;
+
+  // A rolling shutter's pose for each row, the middle row at the frame's time; empty for a
+  // global shutter.
+  std::vector<Eigen::Isometry3d> RowPoses(const GroundTruthFrame& truth) const {
+    std::vector<Eigen::Isometry3d> poses;
+    const double line_s = 1e-3 * scenario_.image.readout_ms / scenario_.height;
+    if (line_s <= 0.0) return poses;
+    const double t = scenario_.SecondsAt(truth.t_ns);
+    poses.resize(scenario_.height, Eigen::Isometry3d::Identity());
+    for (int v = 0; v < scenario_.height; ++v) {
+      const double row_t = t + (v - 0.5 * (scenario_.height - 1)) * line_s;
+      poses[v].linear() = trajectory_.WorldFromCamAt(row_t);
+      poses[v].translation() = trajectory_.PositionAt(row_t);
+    }
+    return poses;
+  }
 
   Scenario scenario_;
   Trajectory trajectory_;
