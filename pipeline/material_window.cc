@@ -63,6 +63,7 @@ bool MaterialWindow::Add(const MotionSnapshot& motion, const InertialSnapshot& i
 CalibrationMaterial MaterialWindow::Assemble(const std::vector<LineObservation>& lines) const {
   CalibrationMaterial material;
   material.frame_count = static_cast<int>(views_.size());
+  for (const View& view : views_) material.frame_t_ns.push_back(view.t_ns);
 
   std::set<int> plane_ids;
   for (const View& view : views_) {

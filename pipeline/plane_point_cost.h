@@ -24,6 +24,7 @@ namespace autocal {
 class PlanePointCost final : public ceres::SizedCostFunction<2, kNumIntrinsics, 6, 6, 3, 2> {
  public:
   explicit PlanePointCost(const Eigen::Vector2d& pixel) : pixel_(pixel) {}
+  void set_pixel(const Eigen::Vector2d& pixel) { pixel_ = pixel; }
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -41,6 +42,7 @@ class PlanePointCost final : public ceres::SizedCostFunction<2, kNumIntrinsics, 
 class ReferenceRayCost final : public ceres::SizedCostFunction<2, kNumIntrinsics, 2> {
  public:
   explicit ReferenceRayCost(const Eigen::Vector2d& pixel) : pixel_(pixel) {}
+  void set_pixel(const Eigen::Vector2d& pixel) { pixel_ = pixel; }
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;

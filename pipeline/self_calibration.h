@@ -62,6 +62,7 @@ struct CalibrationMaterial {
   // the attempt makes no update.
   std::string degraded;
   int frame_count = 0;
+  std::vector<int64_t> frame_t_ns;  // Each frame's time; empty: unknown.
   std::vector<PlaneTrack> planes;
   std::vector<LineObservation> lines;  // Snake shapes: straight world lines.
   std::vector<GravityObservation> gravity;
@@ -120,6 +121,11 @@ struct SelfCalibrationOptions {
   // likewise, by their RMS distance from straight against the median line's
   // (StraightLines): world lines that are not quite straight.
   double max_point_rms_ratio = 3.0;
+  // The camera's rolling shutter: rows are read top to bottom over this time, the middle
+  // row at the frame's time; 0: a global shutter. Each tracked point is then measured as
+  // the camera saw it from its row's pose, moved by the turn and travel that the poses of
+  // the neighbouring views give (needs CalibrationMaterial::frame_t_ns).
+  double readout_ms = 0.0;
 
   bool Check(std::string* error) const;
 };
