@@ -64,6 +64,8 @@ TEST(MaterialWindow, TakesEveryNthFrameOverTheWindow) {
   EXPECT_EQ(times.back(), 87 * int64_t(33333333));
   EXPECT_EQ(times.front(), 57 * int64_t(33333333));
   EXPECT_NEAR(window.span_s(), 1.0, 1e-6);
+  // Box 10 times each view by them (a rolling shutter's rows).
+  EXPECT_EQ(window.Assemble({}).frame_t_ns, times);
 }
 
 TEST(MaterialWindow, HandsOnTheRealTrackPixelsOfTheLongestSeenTracks) {
