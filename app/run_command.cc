@@ -255,6 +255,14 @@ int Run(const QStringList& arguments) {
       for (const std::string& warning : sequence->warnings()) {
         std::fprintf(stderr, "autocal run: warning: %s\n", warning.c_str());
       }
+      const double readout_ms = sequence->session().readout_ms;
+      if (readout_ms > 0 && settings.pipeline.calibration.readout_ms != readout_ms) {
+        std::fprintf(stderr,
+                     "autocal run: warning: the recording's camera has a rolling shutter (rows "
+                     "read over %g ms), calibration.readout_ms is %g: --set "
+                     "calibration.readout_ms=%g undoes it\n",
+                     readout_ms, settings.pipeline.calibration.readout_ms, readout_ms);
+      }
     } else if (!parser.isSet("seconds") && !source->sequence()) {
       std::fprintf(stderr, "autocal run: running until Ctrl-C (--seconds N stops earlier)\n");
     }

@@ -191,6 +191,7 @@ SequenceReport InspectSequence(const Sequence& sequence, const InspectOptions& o
   report.width = session.width;
   report.height = session.height;
   report.premission_calibration = session.premission_calibration;
+  report.readout_ms = session.readout_ms;
   report.warnings = sequence.warnings();
 
   std::vector<int64_t> frame_times(sequence.frame_count());
@@ -286,6 +287,11 @@ std::string FormatReport(const SequenceReport& report) {
        << (report.premission_calibration ? FormatIntrinsics(*report.premission_calibration)
                                          : std::string("none"))
        << "\n";
+  text << "shutter          "
+       << (report.readout_ms > 0
+               ? "rolling, rows read over " + Fixed(report.readout_ms, 2) + " ms"
+               : std::string("global, or not known"))
+       << "\n";
   text << "times in seconds from " << Fixed(1e-9 * static_cast<double>(origin), 6) << "\n";
   if (report.findings.empty()) {
     text << "findings         none\n";
@@ -319,6 +325,7 @@ std::string ReportToJson(const SequenceReport& report) {
   if (const auto& c = report.premission_calibration) {
     WriteJsonIntrinsics(fs, "premission_calibration", *c);
   }
+  cv::write(fs, "readout_ms", report.readout_ms);
   fs << "warnings"
      << "[";
   for (const std::string& warning : report.warnings) WriteJsonText(fs, "", warning);

@@ -65,6 +65,7 @@ struct SequenceReport {
   double overlap_fraction = 0.0;
   bool has_ground_truth = false;
   std::optional<CameraIntrinsics> premission_calibration;
+  double readout_ms = 0.0;  // SessionInfo::readout_ms.
   std::vector<std::string> warnings;  // Faults the reader skipped (truncate_at_fault).
   std::vector<Finding> findings;      // Worst first.
 

@@ -32,6 +32,9 @@ struct SessionInfo {
   int height = 0;
   double frame_rate_hz = 0.0;        // Nominal; measured rates come from the timestamps.
   double accel_rate_hz = 0.0;        // Nominal accelerometer rate.
+  // A rolling shutter's readout: rows read top to bottom over this time, the middle row at
+  // the frame's timestamp. 0: a global shutter, or not known.
+  double readout_ms = 0.0;
   std::optional<CameraIntrinsics> premission_calibration;
   // Rotation taking accelerometer-frame vectors to camera-frame vectors.
   Eigen::Matrix3d cam_from_accel = Eigen::Matrix3d::Identity();

@@ -18,6 +18,8 @@ constexpr int kJsonWrite =
     cv::FileStorage::WRITE | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_JSON;
 constexpr int kJsonRead =
     cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_JSON;
+// A rolling shutter's readout, at most (the slowest frame rate's period).
+constexpr double kMaxReadoutMs = 1000.0;
 
 // Field access that names the file and the field when something is wrong.
 class JsonFields {
@@ -114,6 +116,9 @@ std::string SessionToJson(const SessionInfo& session) {
       !session.cam_from_accel.allFinite()) {
     throw Error("session: frame_rate_hz, accel_rate_hz and cam_from_accel must be finite");
   }
+  if (!(session.readout_ms >= 0 && session.readout_ms <= kMaxReadoutMs)) {
+    throw Error("session: readout_ms must be in [0, " + std::to_string(int(kMaxReadoutMs)) + "]");
+  }
   if (const auto& c = session.premission_calibration) {
     std::string why;
     if (!c->Check(&why)) throw Error("session: premission_calibration: " + why);
@@ -126,6 +131,7 @@ std::string SessionToJson(const SessionInfo& session) {
   cv::write(fs, "height", session.height);
   cv::write(fs, "frame_rate_hz", session.frame_rate_hz);
   cv::write(fs, "accel_rate_hz", session.accel_rate_hz);
+  cv::write(fs, "readout_ms", session.readout_ms);
   if (const auto& c = session.premission_calibration) {
     WriteJsonIntrinsics(fs, "premission_calibration", *c);
   }
@@ -166,7 +172,11 @@ SessionInfo SessionFromJson(const std::string& json, const std::string& source) 
   }
   session.frame_rate_hz = fields.Has("frame_rate_hz") ? fields.Double("frame_rate_hz") : 0.0;
   session.accel_rate_hz = fields.Has("accel_rate_hz") ? fields.Double("accel_rate_hz") : 0.0;
-
+  session.readout_ms = fields.Has("readout_ms") ? fields.Double("readout_ms") : 0.0;
+  if (!(session.readout_ms >= 0 && session.readout_ms <= kMaxReadoutMs)) {
+    fields.Fail("readout_ms", "must be in [0, " + std::to_string(int(kMaxReadoutMs)) +
+                                  "] ms (0: a global shutter)");
+  }
   if (fields.Has("premission_calibration")) {
     const cv::FileNode node = fields.Get("premission_calibration");
     if (!node.isMap()) fields.Fail("premission_calibration", "must be an object");

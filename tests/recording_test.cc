@@ -37,6 +37,7 @@ SessionInfo MakeSession() {
   s.height = 48;
   s.frame_rate_hz = 30.000000000000004;
   s.accel_rate_hz = 800.0;
+  s.readout_ms = 100.0 / 3.0 - 1e-14;
   CameraIntrinsics c;
   c.width = 64;
   c.height = 48;
@@ -122,6 +123,7 @@ void ExpectSameSession(const SessionInfo& expected, const SessionInfo& actual) {
   EXPECT_EQ(actual.height, expected.height);
   EXPECT_EQ(actual.frame_rate_hz, expected.frame_rate_hz);
   EXPECT_EQ(actual.accel_rate_hz, expected.accel_rate_hz);
+  EXPECT_EQ(actual.readout_ms, expected.readout_ms);
   EXPECT_EQ(actual.premission_calibration, expected.premission_calibration);
   EXPECT_EQ(actual.cam_from_accel, expected.cam_from_accel);
   EXPECT_EQ(actual.notes, expected.notes);
@@ -451,6 +453,18 @@ TEST_F(RecordingFaultTest, BadSessionFieldsAreNamed) {
 
   test::WriteTextFile(file("session.json"), "{ \"format_version\": 1, \"width\": \"wide\" }");
   EXPECT_CONTAINS(ErrorOf([&] { OpenRecording(dir()); }), "session.json: width must be an integer");
+
+  session = MakeSession();
+  session.readout_ms = -1.0;
+  EXPECT_CONTAINS(ErrorOf([&] { SessionToJson(session); }), "readout_ms");
+  session.readout_ms = 1.5;
+  std::string json = SessionToJson(session);
+  const std::string positive = "\"readout_ms\": 1.5";
+  const size_t readout = json.find(positive);
+  ASSERT_NE(readout, std::string::npos) << json;
+  json.replace(readout, positive.size(), "\"readout_ms\": -1.5");
+  test::WriteTextFile(file("session.json"), json);
+  EXPECT_CONTAINS(ErrorOf([&] { OpenRecording(dir()); }), "session.json: readout_ms must be in");
 
   test::WriteTextFile(file("session.json"), "{ \"format_version\": 1, ");
   EXPECT_CONTAINS(ErrorOf([&] { OpenRecording(dir()); }), "session.json: is not valid JSON");

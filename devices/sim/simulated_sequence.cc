@@ -37,6 +37,7 @@ class SimulatedSequence : public Sequence {
     session_.height = scenario.height;
     session_.frame_rate_hz = scenario.fps;
     session_.accel_rate_hz = a.rate_hz;
+    session_.readout_ms = scenario.image.readout_ms;
     session_.premission_calibration = IntrinsicsAt(scenario, 0.0);
     session_.cam_from_accel = CamFromAccel(a);
     session_.notes = scenario.description + " (scenario " + scenario.name + ", scene " +

@@ -44,6 +44,15 @@ set -e
   >"$dir/out2" 2>/dev/null || fail "a run from the exported prior"
 grep -qE '^prior +fx 20[0-9]\.' "$dir/out2" || fail "prior printed: $(cat "$dir/out2")"
 
+# A rolling shutter the recording states but the settings do not undo is named.
+"$autocal" run --input "sim:office,seconds=0.2,resolution=320x240,readout_ms=25" \
+  >/dev/null 2>"$dir/rolling"
+grep -q 'rolling shutter (rows read over 25 ms), calibration.readout_ms is 0' "$dir/rolling" ||
+  fail "rolling shutter warned: $(cat "$dir/rolling")"
+"$autocal" run --input "sim:office,seconds=0.2,resolution=320x240,readout_ms=25" \
+  --set calibration.readout_ms=25 >/dev/null 2>"$dir/rolling"
+! grep -q 'rolling shutter' "$dir/rolling" || fail "no warning once told: $(cat "$dir/rolling")"
+
 # To a file first: grep -q stops reading at the first match, and under pipefail the
 # writer's broken pipe would fail the line.
 "$autocal" run --print-settings >"$dir/s.settings"

@@ -29,6 +29,10 @@ grep -qE '^frames +300 frames over 9\.967 s, median rate 30\.00 Hz' "$dir/info" 
 grep -qE '^accelerometer +[0-9]+ samples over .* median rate 800\.0 Hz' "$dir/info" || fail "accelerometer at 800 Hz"
 grep -qE '^ground truth +yes' "$dir/info" || fail "ground truth reported"
 grep -qE '^findings +none' "$dir/info" || fail "no findings on a clean recording"
+grep -qE '^shutter +global, or not known' "$dir/info" || fail "shutter reported"
+"$autocal" info "sim:office,seconds=0.2,readout_ms=20" >"$dir/info_rolling"
+grep -qE '^shutter +rolling, rows read over 20\.00 ms' "$dir/info_rolling" ||
+  fail "rolling shutter reported: $(cat "$dir/info_rolling")"
 for f in intrinsics.csv poses.csv scene.yaml; do
   [[ -s "$dir/rec/ground_truth/$f" ]] || fail "ground_truth/$f missing"
 done
