@@ -525,8 +525,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   std::vector<std::map<int, std::array<double, 2>>> rays(tracks.size());
   struct Residual {
     int frame, plane, point;
-    Eigen::Vector2d pixel;  // As a global shutter would have seen it at the frame's time.
-    Eigen::Vector2d tracked;
+    Eigen::Vector2d pixel;    // As a global shutter would have seen it at the frame's time.
+    Eigen::Vector2d tracked;  // As box 9 measured it.
     PlanePointCost* plane_cost = nullptr;  // Whichever of the two measures it.
     ReferenceRayCost* ray_cost = nullptr;
   };
