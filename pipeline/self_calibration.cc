@@ -612,13 +612,21 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   const bool rolling = line_s > 0 && material.frame_t_ns.size() == size_t(material.frame_count);
   const auto undo_rolling_shutter = [&] {
     const std::vector<ViewMotion> motion = ViewMotions(frame_poses, posed, material.frame_t_ns);
+    std::vector<Eigen::Isometry3d> cam_from_world(frame_poses.size());
+    for (int f : posed) cam_from_world[f] = ToIsometry(frame_poses[f]);
+    const auto project = [&](const Eigen::Vector3d& x) {
+      Eigen::Vector2d pixel;
+      ProjectNormalized(intrinsics.data(), x.x() / x.z(), x.y() / x.z(), pixel.data(), nullptr,
+                        nullptr);
+      return pixel;
+    };
     for (Residual& r : residuals) {
       const int k = plane_reference[r.plane];
       const std::optional<Eigen::Vector3d> in_reference =
           PointOnRay(plane_params[r.plane].data(), rays[r.plane].at(r.point).data());
       if (!in_reference) continue;
       const Eigen::Vector3d at_frame_time =
-          ToIsometry(frame_poses[r.frame]) * (ToIsometry(frame_poses[k]).inverse() * *in_reference);
+          cam_from_world[r.frame] * (cam_from_world[k].inverse() * *in_reference);
       const double delay_s = (r.tracked.y() - 0.5 * (prior.height - 1)) * line_s;
       const Eigen::Vector3d turn = motion[r.frame].turn_rate * delay_s;
       const Eigen::Vector3d at_row_time =
@@ -627,14 +635,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
               at_frame_time -
           delay_s * motion[r.frame].velocity;
       if (!(at_frame_time.z() > 0) || !(at_row_time.z() > 0)) continue;
-      Eigen::Vector2d seen_at_frame_time, seen_at_row_time;
-      ProjectNormalized(intrinsics.data(), at_frame_time.x() / at_frame_time.z(),
-                        at_frame_time.y() / at_frame_time.z(), seen_at_frame_time.data(), nullptr,
-                        nullptr);
-      ProjectNormalized(intrinsics.data(), at_row_time.x() / at_row_time.z(),
-                        at_row_time.y() / at_row_time.z(), seen_at_row_time.data(), nullptr,
-                        nullptr);
-      r.pixel = r.tracked - (seen_at_row_time - seen_at_frame_time);
+      r.pixel = r.tracked - (project(at_row_time) - project(at_frame_time));
       if (r.plane_cost) r.plane_cost->set_pixel(r.pixel);
       if (r.ray_cost) r.ray_cost->set_pixel(r.pixel);
     }
