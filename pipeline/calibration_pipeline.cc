@@ -43,10 +43,13 @@ std::vector<std::pair<std::string, double>> BoxTimings::Named() const {
 }
 
 LensHalf::LensHalf(const PipelineOptions& options)
-    : lens_(options.lens), rectifier_(options.lens.rectify) {}
+    : lens_(options.lens), rectifier_(options.lens.rectify) {
+  lens_.set_readout_ms(options.calibration.readout_ms);
+}
 
 void LensHalf::set_options(const PipelineOptions& options) {
   lens_.set_options(options.lens);
+  lens_.set_readout_ms(options.calibration.readout_ms);
   rectifier_.set_options(options.lens.rectify);
 }
 

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <cstddef>
 #include <iterator>
+#include <optional>
+
+#include <Eigen/Dense>
 
 #include "pipeline/stopwatch.h"
 
@@ -13,6 +16,67 @@ namespace {
 
 Eigen::Vector2d Middle(const RadonSnake& snake) {
   return snake.vertices[snake.vertices.size() / 2];
+}
+
+// A rolling shutter read each hinge of `now` at its row's time, `line_s` a row from the
+// middle row's: the frame's time saw it moved back by its edge's motion over that delay.
+// Only the motion across the line changes a shape (along it a hinge stays on its line),
+// and that is the shape's displacement across its chord since `before`, `interval_s`
+// earlier: fitted along the chord by a quadratic, as a turn's image motion is quadratic
+// in the image coordinates. Nothing when the two do not overlap over most of `now`.
+std::optional<std::vector<Eigen::Vector2d>> AtFrameTime(std::vector<Eigen::Vector2d> now,
+                                                        const std::vector<Eigen::Vector2d>& before,
+                                                        double interval_s, double line_s,
+                                                        int height) {
+  constexpr int kMinPoints = 5;
+  constexpr double kMinOverlap = 0.7;  // Of the newer shape's chord.
+  if (now.size() < size_t(kMinPoints) || before.size() < 2 || !(interval_s > 0)) {
+    return std::nullopt;
+  }
+  const Eigen::Vector2d origin = now.front();
+  const double length = (now.back() - origin).norm();
+  if (!(length > 0)) return std::nullopt;
+  const Eigen::Vector2d along = (now.back() - origin) / length;
+  const Eigen::Vector2d across(-along.y(), along.x());
+  std::vector<Eigen::Vector2d> earlier;  // (along, across) from the newer shape's first hinge.
+  for (const Eigen::Vector2d& p : before)
+    earlier.emplace_back(along.dot(p - origin), across.dot(p - origin));
+  if (earlier.front().x() > earlier.back().x()) std::reverse(earlier.begin(), earlier.end());
+  for (size_t k = 1; k < earlier.size(); ++k) {
+    if (!(earlier[k].x() > earlier[k - 1].x())) return std::nullopt;  // Folded back on itself.
+  }
+  // Along the chord scaled to [-1, 1], so that the quadratic's columns are alike.
+  const auto scaled = [&](const Eigen::Vector2d& p) {
+    return 2 * along.dot(p - origin) / length - 1;
+  };
+  std::vector<Eigen::Vector3d> rows;
+  std::vector<double> displacement;
+  double first = 1, last = -1;
+  for (const Eigen::Vector2d& p : now) {
+    const double u = along.dot(p - origin);
+    const auto next =
+        std::upper_bound(earlier.begin(), earlier.end(), u,
+                         [](double x, const Eigen::Vector2d& e) { return x < e.x(); });
+    if (next == earlier.begin() || next == earlier.end()) continue;
+    const Eigen::Vector2d& a = *(next - 1);
+    const double w_before = a.y() + (next->y() - a.y()) * (u - a.x()) / (next->x() - a.x());
+    const double s = scaled(p);
+    rows.emplace_back(1, s, s * s);
+    displacement.push_back(across.dot(p - origin) - w_before);
+    first = std::min(first, s);
+    last = std::max(last, s);
+  }
+  if (rows.size() < size_t(kMinPoints) || last - first < 2 * kMinOverlap) return std::nullopt;
+  Eigen::MatrixXd design(rows.size(), 3);
+  for (size_t i = 0; i < rows.size(); ++i) design.row(i) = rows[i].transpose();
+  const Eigen::Vector3d fit = design.colPivHouseholderQr().solve(
+      Eigen::Map<const Eigen::VectorXd>(displacement.data(), Eigen::Index(displacement.size())));
+  for (Eigen::Vector2d& p : now) {
+    const double s = scaled(p);
+    const double delay_s = (p.y() - 0.5 * (height - 1)) * line_s;
+    p -= across * (fit.dot(Eigen::Vector3d(1, s, s * s)) * delay_s / interval_s);
+  }
+  return now;
 }
 
 }  // namespace
@@ -88,19 +152,31 @@ size_t LensStage::pooled_shapes() const {
   return count;
 }
 
-void LensStage::Pool(const RadonSnake& snake, cv::Size image_size) {
+void LensStage::Pool(const RadonSnake& snake, cv::Size image_size, int64_t t_ns) {
   auto last = std::find_if(last_pooled_.begin(), last_pooled_.end(),
                            [&](const auto& entry) { return entry.first == snake.id; });
   if (last != last_pooled_.end() &&
       (Middle(snake) - last->second).norm() < options_.min_observation_shift_px) {
     return;
   }
+  std::vector<Eigen::Vector2d> shape = snake.InnerVertices();
+  if (readout_ms_ > 0) {
+    // Without its motion the shape's bend from the shutter cannot be told apart.
+    const auto before = std::find_if(previous_snakes_.begin(), previous_snakes_.end(),
+                                     [&](const RadonSnake& s) { return s.id == snake.id; });
+    if (before == previous_snakes_.end()) return;
+    std::optional<std::vector<Eigen::Vector2d>> at_frame_time =
+        AtFrameTime(std::move(shape), before->InnerVertices(), 1e-9 * double(t_ns - previous_t_ns_),
+                    1e-3 * readout_ms_ / image_size.height, image_size.height);
+    if (!at_frame_time) return;
+    shape = std::move(*at_frame_time);
+  }
   if (last == last_pooled_.end()) {
     last_pooled_.emplace_back(snake.id, Middle(snake));
   } else {
     last->second = Middle(snake);
   }
-  AddShape(snake.InnerVertices(), image_size);
+  AddShape(std::move(shape), image_size);
 }
 
 std::vector<LineObservation> LensStage::NewestShapes(int per_bin) const {
@@ -139,7 +215,11 @@ LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,
   });
   for (const RadonSnake& snake : snapshot.snakes) {
     if (snake.age > 0 && snake.age % options_.observe_every_frames == 0)
-      Pool(snake, channel.size());
+      Pool(snake, channel.size(), t_ns);
+  }
+  if (readout_ms_ > 0) {
+    previous_snakes_ = snapshot.snakes;
+    previous_t_ns_ = t_ns;
   }
   snapshot.lines_ms = MillisecondsSince(start);
 

@@ -83,6 +83,10 @@ class LensStage {
 
   void set_options(const LensOptions& options);
   const LensOptions& options() const { return options_; }
+  // The camera's rolling shutter (SelfCalibrationOptions::readout_ms; 0: a global one): a
+  // snake's shape is then pooled as the frame's time saw it, each hinge moved back by its
+  // edge's motion across the line since the previous frame over its row's delay.
+  void set_readout_ms(double readout_ms) { readout_ms_ = readout_ms; }
   size_t pooled_shapes() const;
   // The snake shapes pooled so far (raw pixels), bin by bin over the image.
   std::vector<LineObservation> PooledShapes() const;
@@ -93,7 +97,7 @@ class LensStage {
   uint64_t pool_version() const { return pool_version_; }
 
  private:
-  void Pool(const RadonSnake& snake, cv::Size image_size);
+  void Pool(const RadonSnake& snake, cv::Size image_size, int64_t t_ns);
   void AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_size);
 
   LensOptions options_;
@@ -102,6 +106,10 @@ class LensStage {
   std::map<int, std::deque<LineObservation>> pool_;  // By cell and orientation bin.
   // Where each snake's last pooled shape was (by snake id), to pool only new views.
   std::vector<std::pair<int, Eigen::Vector2d>> last_pooled_;
+  double readout_ms_ = 0.0;
+  // The snakes of the frame before and its time: with a rolling shutter, their motion.
+  std::vector<RadonSnake> previous_snakes_;
+  int64_t previous_t_ns_ = 0;
   std::optional<PlumbLineResult> latest_;
   struct TimedEstimate {
     PlumbLineResult result;

@@ -195,5 +195,70 @@ TEST(LensSimulated, TessarShowsNoSpuriousDistortion) {
   EXPECT_LT(MaxDistortionDifference(run.periodic.estimate, undistorted, 0.9), 0.5);
 }
 
+struct PooledShapes {
+  // How far each shape is from straight once the true distortion is removed (px RMS about
+  // its line), sorted: a rolling shutter bends the shapes of a turning camera.
+  std::vector<double> bends;
+  PlumbLineResult estimate;  // Box 2's from the pool, with the distortion centre free.
+
+  double Bend(double quantile) const {
+    return bends.at(std::min(bends.size() - 1, size_t(quantile * bends.size())));
+  }
+  double CentreErrorPx(const CameraIntrinsics& truth) const {
+    return std::hypot(estimate.estimate.cx - truth.cx, estimate.estimate.cy - truth.cy);
+  }
+};
+
+PooledShapes Pool(const Sequence& sequence, const std::vector<cv::Mat>& frames,
+                  double told_readout_ms) {
+  const CameraIntrinsics truth = sequence.ground_truth()->front().intrinsics;
+  LensStage stage;
+  stage.set_readout_ms(told_readout_ms);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    stage.Process(sequence.frame_time_ns(i), frames[i], truth);
+  }
+  PooledShapes pooled;
+  for (const LineObservation& shape : stage.PooledShapes()) {
+    std::vector<Eigen::Vector2d> ideal;
+    for (const Eigen::Vector2d& p : shape.points) ideal.push_back(*Unproject(truth, p));
+    pooled.bends.push_back(truth.fx * FitLine(ideal).rms);
+  }
+  std::sort(pooled.bends.begin(), pooled.bends.end());
+  PlumbLineOptions centre_free;
+  centre_free.estimate_centre = true;
+  pooled.estimate = EstimateDistortion(stage.PooledShapes(), truth, centre_free);
+  return pooled;
+}
+
+// Told the readout, boxes 1-3 pool each snake's shape as the frame's time saw it: as
+// straight as a global shutter's; not told, as the rows' times bent it.
+TEST(LensSimulated, RollingShutterBendIsTakenOutOfThePooledShapes) {
+  const std::string spec = "office,lens=sonnar,resolution=320x240,seconds=6";
+  const auto global = MakeSimulatedSequence(ParseScenarioSpec(spec));
+  const auto rolling = MakeSimulatedSequence(ParseScenarioSpec(spec + ",readout_ms=30"));
+  const CameraIntrinsics truth = global->ground_truth()->front().intrinsics;
+  std::vector<cv::Mat> global_frames, rolling_frames;
+  for (size_t i = 0; i < global->frame_count(); ++i) {
+    global_frames.push_back(global->LoadFrame(i));
+    rolling_frames.push_back(rolling->LoadFrame(i));
+  }
+  const PooledShapes reference = Pool(*global, global_frames, 0.0);
+  const PooledShapes ignored = Pool(*rolling, rolling_frames, 0.0);
+  const PooledShapes undone = Pool(*rolling, rolling_frames, 30.0);
+  for (const auto& [name, pooled] :
+       {std::pair{"global shutter", &reference}, std::pair{"rolling, ignored", &ignored},
+        std::pair{"rolling, undone", &undone}}) {
+    std::printf("%s: %zu shapes, bend median %.3f, 90%% %.3f px; centre %.2f px off (%s)\n", name,
+                pooled->bends.size(), pooled->Bend(0.5), pooled->Bend(0.9),
+                pooled->CentreErrorPx(truth), pooled->estimate.message.c_str());
+  }
+  ASSERT_GT(undone.bends.size(), reference.bends.size() / 2) << "most shapes still pooled";
+  EXPECT_GT(ignored.Bend(0.9), 1.5 * reference.Bend(0.9)) << "the shutter must bend them";
+  EXPECT_GT(ignored.CentreErrorPx(truth), 4.0) << "and pull box 2's centre off (px)";
+  EXPECT_LT(undone.Bend(0.9), 1.2 * reference.Bend(0.9)) << "undone: as straight as global";
+  ASSERT_TRUE(undone.estimate.usable) << undone.estimate.message;
+  EXPECT_LT(undone.CentreErrorPx(truth), 2.0) << "px: the centre where a global shutter's is";
+}
+
 }  // namespace
 }  // namespace autocal
