@@ -214,7 +214,6 @@ int Bench(const QStringList& arguments) {
   }
 
   try {
-    const PipelineOptions pipeline = PipelineOptionsFrom(parser);  // Before the long rendering.
     // A --history file that already holds a run is refused before the rendering too (the
     // run opens it again).
     const std::string history_path = parser.value("history").toStdString();
@@ -229,6 +228,9 @@ int Bench(const QStringList& arguments) {
                           loop_seconds ? parser.value("loop").toStdString()
                                        : parser.value("seconds").toStdString());
     std::unique_ptr<Sequence> simulated = MakeSimulatedSequence(scenario);
+    const PipelineOptions pipeline =
+        PipelineOptionsFrom(parser, RecordingDefaults(simulated->session()));
+    ReportRollingShutter("bench", simulated->session(), pipeline);
     const bool stream = parser.isSet("stream");
     std::unique_ptr<RenderedSequence> rendered;
     if (!stream) {

@@ -47,9 +47,11 @@ std::optional<QString> MalformedSetting(const QCommandLineParser& parser) {
   return std::nullopt;
 }
 
-PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser) {
-  PipelineOptions options;
-  if (parser.isSet("settings")) options = ReadPipelineSettings(parser.value("settings").toStdString());
+PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser, const PipelineOptions& base) {
+  PipelineOptions options = base;
+  if (parser.isSet("settings")) {
+    options = ReadPipelineSettings(parser.value("settings").toStdString(), base);
+  }
   for (const QString& assignment : parser.values("set")) {
     const qsizetype equals = assignment.indexOf('=');
     SetPipelineOption(&options, assignment.left(equals).toStdString(),
@@ -58,6 +60,28 @@ PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser) {
   std::string why;
   if (!options.Check(&why)) throw Error("pipeline options: " + why);
   return options;
+}
+
+PipelineOptions RecordingDefaults(const SessionInfo& session) {
+  PipelineOptions options;
+  options.calibration.readout_ms = session.readout_ms;
+  return options;
+}
+
+void ReportRollingShutter(const char* name, const SessionInfo& session,
+                          const PipelineOptions& options) {
+  const double stated = session.readout_ms, used = options.calibration.readout_ms;
+  if (stated > 0 && used == stated) {
+    std::fprintf(stderr,
+                 "autocal %s: the recording's camera has a rolling shutter (rows read over %g "
+                 "ms): undone (calibration.readout_ms=%g)\n",
+                 name, stated, stated);
+  } else if (stated > 0) {
+    std::fprintf(stderr,
+                 "autocal %s: warning: the recording's camera has a rolling shutter (rows read "
+                 "over %g ms), but calibration.readout_ms is set to %g\n",
+                 name, stated, used);
+  }
 }
 
 ProgressPrinter::ProgressPrinter(const char* what, const char* unit)

@@ -10,6 +10,7 @@
 #include <QString>
 #include <QStringList>
 
+#include "devices/sequence.h"
 #include "pipeline/calibration_pipeline.h"
 
 namespace autocal::cli {
@@ -28,10 +29,20 @@ void AddPipelineSettingsOptions(QCommandLineParser& parser);
 // A --set that is not name=value, as a usage error's message.
 std::optional<QString> MalformedSetting(const QCommandLineParser& parser);
 
-// Pipeline options from --settings, then each --set in order (all name=value:
+// Pipeline options from `base`, then --settings, then each --set in order (all name=value:
 // MalformedSetting), checked. Throws Error naming the file and line, or the option, at
 // fault.
-PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser);
+PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser,
+                                    const PipelineOptions& base = {});
+
+// The options a run on a recording starts from: the defaults, with the rolling shutter its
+// camera states (session.json readout_ms), which --settings and --set may still change.
+PipelineOptions RecordingDefaults(const SessionInfo& session);
+
+// On stderr, for subcommand `name`: the recording's rolling shutter undone, or a warning
+// when `options` (the user's settings) measure it with another readout.
+void ReportRollingShutter(const char* name, const SessionInfo& session,
+                          const PipelineOptions& options);
 
 // Progress on stderr: one line rewritten in place on a terminal, a line per 10% elsewhere.
 class ProgressPrinter {

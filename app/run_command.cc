@@ -164,7 +164,9 @@ int Run(const QStringList& arguments) {
            ".",
        "name"},
       {"accel-offset", "Seconds added to accelerometer timestamps (default 0).", "s", "0"},
-      {"print-settings", "Print every pipeline option with its value and meaning, and exit."},
+      {"print-settings",
+       "Print every pipeline option with its value and meaning, and exit (with --input: as a "
+       "run on it would take them)."},
       {"truncate-at-fault", "Keep a recording up to its first fault instead of refusing it."},
       {"stills",
        "The input's frames are still shots of one scene from different viewpoints (an image "
@@ -209,7 +211,7 @@ int Run(const QStringList& arguments) {
 
   try {
     settings.pipeline = PipelineOptionsFrom(parser);
-    if (parser.isSet("print-settings")) {
+    if (parser.isSet("print-settings") && !parser.isSet("input")) {
       std::printf("%s", PipelineSettingsText(settings.pipeline).c_str());
       return 0;
     }
@@ -251,17 +253,18 @@ int Run(const QStringList& arguments) {
     if (sequence && parser.isSet("seconds")) {
       return UsageError(name, "--seconds goes with a live source (camera:N, or --live)", parser);
     }
+    // A recording, played or not, states its camera: the settings start from that.
+    if (const Sequence* recording = sequence ? sequence : source->sequence()) {
+      settings.pipeline = PipelineOptionsFrom(parser, RecordingDefaults(recording->session()));
+      ReportRollingShutter("run", recording->session(), settings.pipeline);
+    }
+    if (parser.isSet("print-settings")) {
+      std::printf("%s", PipelineSettingsText(settings.pipeline).c_str());
+      return 0;
+    }
     if (sequence) {
       for (const std::string& warning : sequence->warnings()) {
         std::fprintf(stderr, "autocal run: warning: %s\n", warning.c_str());
-      }
-      const double readout_ms = sequence->session().readout_ms;
-      if (readout_ms > 0 && settings.pipeline.calibration.readout_ms != readout_ms) {
-        std::fprintf(stderr,
-                     "autocal run: warning: the recording's camera has a rolling shutter (rows "
-                     "read over %g ms), calibration.readout_ms is %g: --set "
-                     "calibration.readout_ms=%g undoes it\n",
-                     readout_ms, settings.pipeline.calibration.readout_ms, readout_ms);
       }
     } else if (!parser.isSet("seconds") && !source->sequence()) {
       std::fprintf(stderr, "autocal run: running until Ctrl-C (--seconds N stops earlier)\n");

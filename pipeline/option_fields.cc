@@ -537,7 +537,7 @@ std::vector<OptionField> MakeFields() {
                     &P::calibration, &C::still_intrinsics_px),
       Field<double>("calibration.readout_ms", 0, 1000,
                     "the camera's rolling shutter reads its rows top to bottom over this time "
-                    "(ms; 0: a global shutter)",
+                    "(ms; 0: a global shutter; a recording that states it sets it)",
                     &P::calibration, &C::readout_ms),
       // The history.
       Field<double>("acceptance.max_rms_px", 0.001, 100,

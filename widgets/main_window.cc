@@ -704,11 +704,33 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
     log(tr("Warning: %1").arg(QString::fromStdString(warning)), true);
   }
   if (count == 0) video_->showMessage(tr("%1 has no frames.").arg(description));
+  takeRecordingsShutter(seq.session());
   // The run starts once the first frame is on screen: the picture comes first.
   pipeline_->start(nullptr);
   start_pipeline_on_frame_ = true;
   emit opened(source);
   if (!follow_action_->isChecked()) playback_->play();  // Following, it goes with the run.
+}
+
+void MainWindow::takeRecordingsShutter(const SessionInfo& session) {
+  PipelineOptions options = pipeline_->options();
+  double& readout = options.calibration.readout_ms;
+  const double in_effect = readout, stated = session.readout_ms;
+  if (stated > 0) {
+    readout = stated;
+  } else if (recording_readout_ms_ > 0 && readout == recording_readout_ms_) {
+    readout = 0.0;
+  }
+  recording_readout_ms_ = stated;
+  if (stated > 0) {
+    log(tr("The camera has a rolling shutter (rows read over %1 ms): undone "
+           "(calibration.readout_ms).")
+            .arg(stated));
+  }
+  if (readout == in_effect) return;
+  if (stated == 0) log(tr("A global shutter, or not known: calibration.readout_ms back to 0."));
+  threshold_panel_->setOptions(options);
+  pipeline_->setOptions(options);
 }
 
 void MainWindow::onOpenFailed(const QString& source, const QString& message) {

@@ -46,6 +46,7 @@ class SceneView;
 class ThresholdPanel;
 class Sequence;
 class SequenceOpener;
+struct SessionInfo;
 
 class MainWindow : public QMainWindow {
   Q_OBJECT
@@ -125,6 +126,9 @@ class MainWindow : public QMainWindow {
   void restoreSettings();
 
   void onOpened(const QString& source, std::shared_ptr<const Sequence> sequence);
+  // The settings take the rolling shutter the recording's camera states, as `autocal run`
+  // does; a readout the last recording set goes with it.
+  void takeRecordingsShutter(const SessionInfo& session);
   void onOpenFailed(const QString& source, const QString& message);
   void onHistoryOpened(const QString& path, std::shared_ptr<const CalibrationSeries> series);
   void onHistoryFailed(const QString& path, const QString& message);
@@ -202,6 +206,7 @@ class MainWindow : public QMainWindow {
   // A history opened by hand stays in the docks; else they follow the pipeline's run.
   bool history_opened_by_hand_ = false;
   bool start_pipeline_on_frame_ = false;  // A recording opened, its first frame not shown yet.
+  double recording_readout_ms_ = 0.0;     // The readout the open recording states (0: none).
   std::shared_ptr<const FrameSnapshot> last_live_snapshot_;  // Forwarded last.
   // A live source is connected: the video shows its frames, not the recording's.
   bool live_ = false;

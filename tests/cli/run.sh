@@ -44,14 +44,23 @@ set -e
   >"$dir/out2" 2>/dev/null || fail "a run from the exported prior"
 grep -qE '^prior +fx 20[0-9]\.' "$dir/out2" || fail "prior printed: $(cat "$dir/out2")"
 
-# A rolling shutter the recording states but the settings do not undo is named.
+# A rolling shutter the recording states is undone, unless the settings say otherwise.
 "$autocal" run --input "sim:office,seconds=0.2,resolution=320x240,readout_ms=25" \
-  >/dev/null 2>"$dir/rolling"
-grep -q 'rolling shutter (rows read over 25 ms), calibration.readout_ms is 0' "$dir/rolling" ||
-  fail "rolling shutter warned: $(cat "$dir/rolling")"
+  --print-settings >"$dir/rolling.settings" 2>"$dir/rolling"
+grep -q '^calibration.readout_ms = 25$' "$dir/rolling.settings" ||
+  fail "the recording's readout taken: $(grep readout "$dir/rolling.settings")"
+grep -q 'rolling shutter (rows read over 25 ms): undone' "$dir/rolling" ||
+  fail "rolling shutter said: $(cat "$dir/rolling")"
 "$autocal" run --input "sim:office,seconds=0.2,resolution=320x240,readout_ms=25" \
-  --set calibration.readout_ms=25 >/dev/null 2>"$dir/rolling"
-! grep -q 'rolling shutter' "$dir/rolling" || fail "no warning once told: $(cat "$dir/rolling")"
+  --set calibration.readout_ms=0 --print-settings >"$dir/rolling.settings" 2>"$dir/rolling"
+grep -q '^calibration.readout_ms = 0$' "$dir/rolling.settings" ||
+  fail "--set over the recording: $(grep readout "$dir/rolling.settings")"
+grep -q 'rolling shutter (rows read over 25 ms), but calibration.readout_ms is set to 0' \
+  "$dir/rolling" || fail "rolling shutter warned: $(cat "$dir/rolling")"
+"$autocal" run --input "sim:office,seconds=0.2,resolution=320x240" --print-settings \
+  >"$dir/global.settings" 2>"$dir/global"
+grep -q '^calibration.readout_ms = 0$' "$dir/global.settings" || fail "a global shutter's readout"
+! grep -q 'rolling shutter' "$dir/global" || fail "nothing said of a global shutter"
 
 # To a file first: grep -q stops reading at the first match, and under pipefail the
 # writer's broken pipe would fail the line.

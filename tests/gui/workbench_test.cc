@@ -44,6 +44,7 @@
 #include "widgets/pipeline_controller.h"
 #include "widgets/playback_controller.h"
 #include "widgets/plot_decimation.h"
+#include "widgets/threshold_panel.h"
 #include "widgets/timing_table.h"
 #include "widgets/video_view.h"
 
@@ -149,6 +150,7 @@ class WorkbenchTest : public QObject {
   void statusTextFitsAtDefaultSize();
   void timingDockShowsTheRunsBoxTimes();
   void runsFromThePremissionCalibrationGiven();
+  void takesTheRecordingsRollingShutter();
 
  private:
   // A shown main window with `source` open and its first frame on screen.
@@ -527,6 +529,37 @@ void WorkbenchTest::badPathKeepsRecordingOpen() {
   window->playback()->pause();
   window->playback()->seekToIndex(12);
   EXPECT_SHOWN(*window, 12);
+}
+
+// A recording that states its camera's rolling shutter sets calibration.readout_ms for its
+// runs, in the pipeline and in the thresholds panel; the next recording that states none
+// takes it back, but not a readout set by hand.
+void WorkbenchTest::takesTheRecordingsRollingShutter() {
+  const auto window = OpenWindow(kSimSource + QStringLiteral(",readout_ms=25"));
+  QVERIFY(window);
+  const auto readouts = [&] {
+    return std::pair{window->pipelineController()->options().calibration.readout_ms,
+                     window->thresholdPanel()->options().calibration.readout_ms};
+  };
+  QCOMPARE(readouts(), std::pair(25.0, 25.0));
+  const auto reopen = [&](const QString& source) {
+    QSignalSpy opened(window.get(), &MainWindow::opened);
+    window->open(source);
+    return opened.wait(kOpenTimeoutMs);
+  };
+  QVERIFY(reopen(kSimSource));
+  QCOMPARE(readouts(), std::pair(0.0, 0.0));
+
+  PipelineOptions by_hand = window->thresholdPanel()->options();
+  by_hand.calibration.readout_ms = 12.0;
+  window->thresholdPanel()->setOptions(by_hand);
+  emit window->thresholdPanel()->optionsChanged(by_hand);
+  QVERIFY(reopen(kSimSource + QStringLiteral(",seed=2")));
+  QCOMPARE(readouts(), std::pair(12.0, 12.0));
+  const auto* log = window->findChild<QPlainTextEdit*>(QStringLiteral("log"));
+  QVERIFY(log);
+  QVERIFY2(log->toPlainText().contains(QStringLiteral("rows read over 25 ms")),
+           qPrintable(log->toPlainText()));
 }
 
 void WorkbenchTest::runsFromThePremissionCalibrationGiven() {
