@@ -31,11 +31,14 @@ const std::map<QString, Subcommand>& Subcommands() {
       {"record",
        {autocal::cli::Record, "record a live camera + accelerometer (or any source) to a folder"}},
       {"devices", {autocal::cli::Devices, "list cameras and look for a USB accelerometer"}},
+      {"readout",
+       {autocal::cli::Readout, "measure a recording's rolling-shutter readout (a run per guess)"}},
       {"bench",
        {autocal::cli::Bench, "time the whole pipeline on a simulated recording (fps, latency)"}},
       {"check",
-       {autocal::cli::Check, "the vest check: walk, then pass / fail against the pre-mission "
-                             "calibration"}},
+       {autocal::cli::Check,
+        "the vest check: walk, then pass / fail against the pre-mission "
+        "calibration"}},
   };
   return kSubcommands;
 }

@@ -21,5 +21,7 @@ int Devices(const QStringList& arguments);
 int Bench(const QStringList& arguments);
 // check_command.cc
 int Check(const QStringList& arguments);
+// readout_command.cc
+int Readout(const QStringList& arguments);
 
 }  // namespace autocal::cli
