@@ -22,8 +22,10 @@ namespace {
 std::string EstimateJson(const ReadoutEstimate& estimate, double stated_ms) {
   std::string json =
       "{\n  \"readout_ms\": " + (estimate.readout_ms ? JsonNumber(*estimate.readout_ms) : "null") +
-      ",\n  \"why\": " + JsonString(estimate.why) + ",\n  \"stated_ms\": " + JsonNumber(stated_ms) +
-      ",\n  \"trials\": [";
+      ",\n  \"why\": " + JsonString(estimate.why) + ",\n  \"nearly_as_well_ms\": [" +
+      JsonNumber(estimate.nearly_as_well_from_ms) + ", " +
+      JsonNumber(estimate.nearly_as_well_to_ms) + "]" +
+      ",\n  \"stated_ms\": " + JsonNumber(stated_ms) + ",\n  \"trials\": [";
   for (size_t k = 0; k < estimate.trials.size(); ++k) {
     const ReadoutTrial& t = estimate.trials[k];
     json += std::string(k ? "," : "") + "\n    {\"readout_ms\": " + JsonNumber(t.readout_ms) +
@@ -104,7 +106,9 @@ int Readout(const QStringList& arguments) {
       std::fprintf(stderr, "autocal readout: not measured: %s\n", estimate.why.c_str());
       return 1;
     }
-    std::printf("readout %.1f ms: %s\n", *estimate.readout_ms, estimate.why.c_str());
+    std::printf("readout %.1f ms: %s; within %g%% of that fit from %g to %g ms\n",
+                *estimate.readout_ms, estimate.why.c_str(), 100 * ReadoutEstimate::kNearlyAsWell,
+                estimate.nearly_as_well_from_ms, estimate.nearly_as_well_to_ms);
     std::printf("use it: --set calibration.readout_ms=%.1f\n", *estimate.readout_ms);
     return 0;
   } catch (const Error& e) {

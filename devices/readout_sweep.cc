@@ -22,6 +22,13 @@ ReadoutEstimate BestReadout(std::vector<ReadoutTrial> trials) {
   const auto best = std::min_element(
       trials.begin(), trials.end(),
       [](const auto& a, const auto& b) { return a.median_rms_px < b.median_rms_px; });
+  bool any_nearly = false;  // The trials are in readout order.
+  for (const ReadoutTrial& t : trials) {
+    if (t.median_rms_px > (1 + ReadoutEstimate::kNearlyAsWell) * best->median_rms_px) continue;
+    if (!any_nearly) estimate.nearly_as_well_from_ms = t.readout_ms;
+    estimate.nearly_as_well_to_ms = t.readout_ms;
+    any_nearly = true;
+  }
   if (best == trials.begin()) {
     if (best->readout_ms == 0.0) {
       estimate.readout_ms = 0.0;

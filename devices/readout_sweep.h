@@ -29,6 +29,10 @@ struct ReadoutEstimate {
   // The best fitting readout; none when it cannot be told (say why).
   std::optional<double> readout_ms;
   std::string why;
+  // The readouts tried that fit nearly as well (median RMS within kNearlyAsWell of the
+  // best), smallest and largest: how sharply the walk tells the readout (0 when untold).
+  double nearly_as_well_from_ms = 0.0, nearly_as_well_to_ms = 0.0;
+  static constexpr double kNearlyAsWell = 0.05;
 };
 
 // Refines the trial with the lowest median RMS by the parabola through it and its two

@@ -26,6 +26,9 @@ TEST(BestReadout, VertexOfTheParabolaThroughTheBestAndItsNeighbours) {
   ASSERT_TRUE(estimate.readout_ms) << estimate.why;
   EXPECT_NEAR(*estimate.readout_ms, 23.0, 1e-9);
   EXPECT_EQ(estimate.trials.size(), 8u);
+  // Within 5% of the best (25 ms, 0.0504 px): (x - 23)^2 <= 29.2, so 20 to 25 ms.
+  EXPECT_EQ(estimate.nearly_as_well_from_ms, 20.0);
+  EXPECT_EQ(estimate.nearly_as_well_to_ms, 25.0);
   // Unevenly spaced and out of order: the same vertex.
   const ReadoutEstimate shuffled = BestReadout(Parabola(23.0, {40, 0, 21, 12, 30}));
   ASSERT_TRUE(shuffled.readout_ms) << shuffled.why;
