@@ -62,12 +62,6 @@ PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser, const Pipe
   return options;
 }
 
-PipelineOptions RecordingDefaults(const SessionInfo& session) {
-  PipelineOptions options;
-  options.calibration.readout_ms = session.readout_ms;
-  return options;
-}
-
 void ReportRollingShutter(const char* name, const SessionInfo& session,
                           const PipelineOptions& options) {
   const double stated = session.readout_ms, used = options.calibration.readout_ms;

@@ -10,6 +10,7 @@
 #include <QString>
 #include <QStringList>
 
+#include "devices/offline_runner.h"
 #include "devices/sequence.h"
 #include "pipeline/calibration_pipeline.h"
 
@@ -34,10 +35,6 @@ std::optional<QString> MalformedSetting(const QCommandLineParser& parser);
 // fault.
 PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser,
                                     const PipelineOptions& base = {});
-
-// The options a run on a recording starts from: the defaults, with the rolling shutter its
-// camera states (session.json readout_ms), which --settings and --set may still change.
-PipelineOptions RecordingDefaults(const SessionInfo& session);
 
 // On stderr, for subcommand `name`: the recording's rolling shutter undone, or a warning
 // when `options` (the user's settings) measure it with another readout.

@@ -162,6 +162,12 @@ void CompleteReport(const Runtime& runtime, FrameLog log,
 
 }  // namespace
 
+PipelineOptions RecordingDefaults(const SessionInfo& session) {
+  PipelineOptions options;
+  options.calibration.readout_ms = session.readout_ms;
+  return options;
+}
+
 RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
                       const std::function<void(const RunProgress&)>& progress) {
   const SessionInfo& session = sequence.session();

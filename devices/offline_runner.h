@@ -97,6 +97,10 @@ struct RunProgress {
   const SourceStats* source = nullptr;
 };
 
+// The options a run on a recording or a source starts from: the defaults, with the rolling shutter
+// its camera states (session.json readout_ms), which settings given after may still change.
+PipelineOptions RecordingDefaults(const SessionInfo& session);
+
 // Processes every frame of `sequence`. Throws Error on bad settings, unreadable frames or
 // a history file it cannot write. `progress`, when given, is called after every frame.
 RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,

@@ -6,6 +6,7 @@
 #include <span>
 #include <utility>
 
+#include "devices/offline_runner.h"
 #include "devices/runtime.h"
 #include "devices/source.h"
 #include "pipeline/error.h"
@@ -43,7 +44,7 @@ VestCheckResult RunVestCheck(const std::string& input, const std::string& accel,
   RuntimeOptions runtime_options;
   runtime_options.live = source->live();
   std::atomic<bool> time_up{false};
-  Runtime runtime(*start, accel_calibration, PipelineOptions{}, runtime_options,
+  Runtime runtime(*start, accel_calibration, RecordingDefaults(session), runtime_options,
                   [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
                     check.Add(*snapshot);
                     if (check.elapsed_s() >= options.duration_s) time_up = true;
