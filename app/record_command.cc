@@ -72,6 +72,11 @@ int Record(const QStringList& arguments) {
        "spec"},
       {"seconds", "Seconds to record (default: until the source ends or Ctrl-C).", "s"},
       {"out", "Recording folder to create (must not exist or be empty).", "dir"},
+      {"readout-ms",
+       "The camera's rolling-shutter readout to state in the recording (ms; 0: a global "
+       "shutter; `autocal readout` measures it). Default: the source's own (none for a "
+       "camera).",
+       "ms"},
   });
   if (const auto code = Parse(parser, name, arguments)) return *code;
   if (!parser.isSet("input")) return UsageError(name, "--input is required", parser);
@@ -82,6 +87,14 @@ int Record(const QStringList& arguments) {
     options.seconds = parser.value("seconds").toDouble(&ok);
     if (!ok || !(options.seconds > 0)) {
       return UsageError(name, "--seconds takes a positive number", parser);
+    }
+  }
+
+  if (parser.isSet("readout-ms")) {
+    bool ok = false;
+    options.readout_ms = parser.value("readout-ms").toDouble(&ok);
+    if (!ok || !(*options.readout_ms >= 0 && *options.readout_ms <= 1000)) {
+      return UsageError(name, "--readout-ms takes milliseconds in [0, 1000]", parser);
     }
   }
 

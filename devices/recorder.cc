@@ -241,6 +241,8 @@ bool RecorderOptions::Check(std::string* error) const {
     *error = "writer_queue_frames: at least 1";
   } else if (!(progress_interval_s > 0)) {
     *error = "progress_interval_s: must be positive";
+  } else if (readout_ms && !(*readout_ms >= 0 && *readout_ms <= 1000)) {
+    *error = "readout_ms: must be in [0, 1000]";
   } else {
     return true;
   }
@@ -259,9 +261,14 @@ RecorderProgress Record(FrameSource& source, const std::string& dir, const Recor
   source.Start();
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
+  const auto session = [&] {
+    SessionInfo stated = source.session();
+    if (options.readout_ms) stated.readout_ms = *options.readout_ms;
+    return stated;
+  };
   std::optional<RecordingWriter> writer;
   try {
-    writer.emplace(dir, source.session());
+    writer.emplace(dir, session());
   } catch (...) {
     source.Stop();
     throw;
@@ -308,7 +315,7 @@ RecorderProgress Record(FrameSource& source, const std::string& dir, const Recor
   writer_thread.Close();
   if (const std::exception_ptr failure = writer_thread.failure()) std::rethrow_exception(failure);
   // A live accelerometer's rate is known only now; the file is replaced whole.
-  if (source.live()) WriteSessionFile((fs::path(dir) / "session.json").string(), source.session());
+  if (source.live()) WriteSessionFile((fs::path(dir) / "session.json").string(), session());
   const RecorderProgress last = report();
   if (progress) progress(last);
   return last;

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,9 @@ struct RecorderOptions {
   size_t writer_queue_frames = 32;
   // Time between progress reports.
   double progress_interval_s = 1.0;
+  // The camera's rolling-shutter readout (ms) to state in session.json, where a camera
+  // cannot tell it (`autocal readout` measures it); none: the source's own.
+  std::optional<double> readout_ms;
 
   bool Check(std::string* error) const;
 };

@@ -47,6 +47,21 @@ TEST(RecorderTest, RecordsTheRequestedSecondsOfARecordedSource) {
   EXPECT_EQ(result.accel_written, expected_samples);
   EXPECT_EQ(recorded->accel().front().t_ns, simulated->accel().front().t_ns);
   EXPECT_EQ(recorded->session().width, 160);
+  EXPECT_EQ(recorded->session().readout_ms, 0.0) << "the simulator's global shutter";
+}
+
+// A camera cannot tell its rolling shutter's readout: the recording states the one given.
+TEST(RecorderTest, StatesTheReadoutGiven) {
+  test::TempDir dir;
+  const std::unique_ptr<FrameSource> source = OpenSource(kSmallSim);
+  RecorderOptions options;
+  options.seconds = 0.2;
+  options.readout_ms = 27.5;
+  Record(*source, dir / "rec", options);
+  EXPECT_EQ(OpenSequence(dir / "rec")->session().readout_ms, 27.5);
+  options.readout_ms = -1.0;
+  EXPECT_THROW(Record(*OpenSource(kSmallSim), dir / "bad", options), Error);
+  EXPECT_FALSE(fs::exists(dir / "bad"));
 }
 
 TEST(RecorderTest, StopFlagEndsTheRecording) {

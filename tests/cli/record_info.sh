@@ -88,4 +88,15 @@ set +e
 set -e
 [[ $code -eq 1 ]] || fail "usb accelerometer with sim exits $code"
 grep -q 'needs a live camera input' "$dir/err" || fail "clock message: $(cat "$dir/err")"
+
+# The rolling shutter's readout the recording states, as given; a bad one refused.
+"$autocal" record --input "sim:office,seconds=0.2,resolution=160x120" --out "$dir/ro" \
+  --readout-ms 22 >/dev/null 2>&1 || fail "record --readout-ms"
+"$autocal" info "$dir/ro" >"$dir/ro_info"
+grep -qE '^shutter +rolling, rows read over 22\.00 ms' "$dir/ro_info" ||
+  fail "stated readout: $(grep shutter "$dir/ro_info")"
+set +e
+"$autocal" record --input sim:office --out "$dir/z" --readout-ms -3 2>"$dir/err"; code=$?
+set -e
+[[ $code -eq 2 ]] && grep -q -- '--readout-ms takes' "$dir/err" || fail "bad readout exits $code"
 echo "record_info: all checks passed"
