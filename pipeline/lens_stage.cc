@@ -39,8 +39,9 @@ std::optional<std::vector<Eigen::Vector2d>> AtFrameTime(std::vector<Eigen::Vecto
   const Eigen::Vector2d along = (now.back() - origin) / length;
   const Eigen::Vector2d across(-along.y(), along.x());
   std::vector<Eigen::Vector2d> earlier;  // (along, across) from the newer shape's first hinge.
-  for (const Eigen::Vector2d& p : before)
+  for (const Eigen::Vector2d& p : before) {
     earlier.emplace_back(along.dot(p - origin), across.dot(p - origin));
+  }
   if (earlier.front().x() > earlier.back().x()) std::reverse(earlier.begin(), earlier.end());
   for (size_t k = 1; k < earlier.size(); ++k) {
     if (!(earlier[k].x() > earlier[k - 1].x())) return std::nullopt;  // Folded back on itself.
