@@ -18,6 +18,7 @@
 
 #include "app/cli_commands.h"
 #include "app/cli_util.h"
+#include "devices/in_memory_sequence.h"
 #include "devices/offline_runner.h"
 #include "devices/sim/simulator.h"
 #include "devices/source.h"
@@ -27,35 +28,6 @@
 
 namespace autocal::cli {
 namespace {
-
-// A sequence whose frames are already in memory: LoadFrame costs nothing.
-class RenderedSequence : public Sequence {
- public:
-  explicit RenderedSequence(std::unique_ptr<Sequence> source) : source_(std::move(source)) {
-    frames_.resize(source_->frame_count());
-    // The renderer already spreads each frame over every core.
-    for (size_t i = 0; i < frames_.size(); ++i) frames_[i] = source_->LoadFrame(i);
-  }
-  std::string Describe() const override { return source_->Describe(); }
-  const SessionInfo& session() const override { return source_->session(); }
-  size_t frame_count() const override { return frames_.size(); }
-  int64_t frame_time_ns(size_t index) const override { return source_->frame_time_ns(index); }
-  cv::Mat LoadFrame(size_t index) const override { return frames_.at(index); }
-  const std::vector<AccelSample>& accel() const override { return source_->accel(); }
-  const std::vector<std::string>& warnings() const override { return source_->warnings(); }
-  const std::vector<GroundTruthFrame>* ground_truth() const override {
-    return source_->ground_truth();
-  }
-  double megabytes() const {
-    double bytes = 0.0;
-    for (const cv::Mat& frame : frames_) bytes += double(frame.total() * frame.elemSize());
-    return bytes / (1024.0 * 1024.0);
-  }
-
- private:
-  std::unique_ptr<Sequence> source_;
-  std::vector<cv::Mat> frames_;
-};
 
 // `source` played over and over, each pass's times (frames and accelerometer) shifted to
 // follow the last: a long session from a short rendering, for memory over time. Each pass
@@ -232,10 +204,10 @@ int Bench(const QStringList& arguments) {
         PipelineOptionsFrom(parser, RecordingDefaults(simulated->session()));
     ReportRollingShutter("bench", simulated->session(), pipeline);
     const bool stream = parser.isSet("stream");
-    std::unique_ptr<RenderedSequence> rendered;
+    std::unique_ptr<InMemorySequence> rendered;
     if (!stream) {
       std::fprintf(stderr, "autocal bench: rendering %zu frames...\n", simulated->frame_count());
-      rendered = std::make_unique<RenderedSequence>(std::move(simulated));
+      rendered = std::make_unique<InMemorySequence>(std::move(simulated));
     }
     std::unique_ptr<LoopedSequence> looped;
     if (loop_seconds) {

@@ -3,12 +3,14 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <QCommandLineParser>
 
 #include "app/cli_commands.h"
 #include "app/cli_util.h"
+#include "devices/in_memory_sequence.h"
 #include "devices/offline_runner.h"
 #include "devices/readout_sweep.h"
 #include "devices/sequence.h"
@@ -75,7 +77,14 @@ int Readout(const QStringList& arguments) {
                       parser);
   }
   try {
-    const std::unique_ptr<Sequence> sequence = OpenSequence(parser.value("input").toStdString());
+    std::unique_ptr<Sequence> sequence = OpenSequence(parser.value("input").toStdString());
+    // Each trial reads every frame: read once, where they fit.
+    constexpr double kMaxInMemoryMb = 2048;
+    if (const double mb = InMemorySequence::MegabytesOf(*sequence); mb <= kMaxInMemoryMb) {
+      std::fprintf(stderr, "autocal readout: reading the %zu frames into memory (%.0f MB)...\n",
+                   sequence->frame_count(), mb);
+      sequence = std::make_unique<InMemorySequence>(std::move(sequence));
+    }
     RunSettings settings;
     settings.pipeline = PipelineOptionsFrom(parser, RecordingDefaults(sequence->session()));
     if (parser.isSet("prior")) {
