@@ -218,7 +218,8 @@ PooledShapes Pool(const Sequence& sequence, const std::vector<cv::Mat>& frames,
     stage.Process(sequence.frame_time_ns(i), frames[i], truth);
   }
   PooledShapes pooled;
-  for (const LineObservation& shape : stage.PooledShapes()) {
+  const std::vector<LineObservation> shapes = stage.PooledShapes();
+  for (const LineObservation& shape : shapes) {
     std::vector<Eigen::Vector2d> ideal;
     for (const Eigen::Vector2d& p : shape.points) ideal.push_back(*Unproject(truth, p));
     pooled.bends.push_back(truth.fx * FitLine(ideal).rms);
@@ -226,7 +227,7 @@ PooledShapes Pool(const Sequence& sequence, const std::vector<cv::Mat>& frames,
   std::sort(pooled.bends.begin(), pooled.bends.end());
   PlumbLineOptions centre_free;
   centre_free.estimate_centre = true;
-  pooled.estimate = EstimateDistortion(stage.PooledShapes(), truth, centre_free);
+  pooled.estimate = EstimateDistortion(shapes, truth, centre_free);
   return pooled;
 }
 
