@@ -96,7 +96,7 @@ void FlowTracker::Advance(int64_t t_ns, const cv::Mat& gray) {
   std::vector<cv::Mat> pyramid;
   // A copy, not the caller's pixels: the base level is the frame new corners come from.
   cv::buildOpticalFlowPyramid(gray, pyramid, window, options_.pyramid_levels, true,
-                              cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
+                              cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, true);
   died_ = 0;
   if (pyramid_.empty() || pyramid_[0].size() != gray.size()) {
     died_ = static_cast<int>(tracks_.size());
