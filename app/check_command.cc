@@ -67,6 +67,10 @@ int Check(const QStringList& arguments) {
       {"prior", "The pre-mission calibration (any format `autocal` writes); default: the source's.",
        "file"},
       {"seconds", "How long to walk.", "s", QString::number(defaults.duration_s)},
+      {"readout-ms",
+       "The camera's rolling-shutter readout (ms; 0: a global shutter; `autocal readout` "
+       "measures it). Default: what the source states (a live camera states none).",
+       "ms"},
       {"focal-tolerance", "Largest difference of fx, fy that passes, percent.", "percent",
        QString::number(defaults.tolerance.focal_percent)},
       {"principal-tolerance", "Largest difference of cx, cy that passes, pixels.", "px",
@@ -91,6 +95,14 @@ int Check(const QStringList& arguments) {
   }
   std::string why;
   if (!options.Check(&why)) return UsageError(name, QString::fromStdString(why), parser);
+  std::optional<double> readout_ms;
+  if (parser.isSet("readout-ms")) {
+    bool ok = false;
+    readout_ms = parser.value("readout-ms").toDouble(&ok);
+    if (!ok || !(*readout_ms >= 0 && *readout_ms <= 1000)) {
+      return UsageError(name, "--readout-ms takes milliseconds in [0, 1000]", parser);
+    }
+  }
 
   try {
     std::optional<CameraIntrinsics> premission;
@@ -110,7 +122,7 @@ int Check(const QStringList& arguments) {
     const std::atomic<bool> stop{false};
     const VestCheckResult result =
         RunVestCheck(parser.value("input").toStdString(), parser.value("accel").toStdString(),
-                     premission, options, stop, hooks);
+                     premission, readout_ms, options, stop, hooks);
     PrintResult(result);
     return result.verdict == VestVerdict::kPass   ? 0
            : result.verdict == VestVerdict::kFail ? kExitFail

@@ -15,8 +15,13 @@ namespace autocal {
 
 VestCheckResult RunVestCheck(const std::string& input, const std::string& accel,
                              const std::optional<CameraIntrinsics>& premission,
-                             const VestCheckOptions& options, const std::atomic<bool>& stop,
-                             const VestCheckHooks& hooks) {
+                             std::optional<double> readout_ms, const VestCheckOptions& options,
+                             const std::atomic<bool>& stop, const VestCheckHooks& hooks) {
+  // Before the camera opens: a bad number is the news, not a device.
+  if (readout_ms && !(*readout_ms >= 0 && *readout_ms <= 1000)) {
+    throw Error("the rolling-shutter readout must be in [0, 1000] ms, got " +
+                std::to_string(*readout_ms));
+  }
   const std::unique_ptr<FrameSource> source = OpenSource(input, accel);
   source->Start();
   const SessionInfo session = source->session();
@@ -43,8 +48,10 @@ VestCheckResult RunVestCheck(const std::string& input, const std::string& accel,
   accel_calibration.cam_from_accel = session.cam_from_accel;
   RuntimeOptions runtime_options;
   runtime_options.live = source->live();
+  PipelineOptions pipeline = RecordingDefaults(session);
+  if (readout_ms) pipeline.calibration.readout_ms = *readout_ms;
   std::atomic<bool> time_up{false};
-  Runtime runtime(*start, accel_calibration, RecordingDefaults(session), runtime_options,
+  Runtime runtime(*start, accel_calibration, pipeline, runtime_options,
                   [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
                     check.Add(*snapshot);
                     if (check.elapsed_s() >= options.duration_s) time_up = true;

@@ -27,12 +27,14 @@ struct VestCheckHooks {
 };
 
 // `premission`: the calibration the vest was sent out with; without one, the source's own
-// (session.json, the simulator's lens). `stop`, when set, ends the walk early; the verdict
-// is on what was seen. Throws Error when the source cannot be opened or read, or has no
-// pre-mission calibration of its image size.
+// (session.json, the simulator's lens). `readout_ms`: the camera's rolling-shutter readout;
+// without one, what the source states (a recording's session.json; a live camera states
+// none: a global shutter). `stop`, when set, ends the walk early; the verdict is on what was
+// seen. Throws Error when the source cannot be opened or read, or has no pre-mission
+// calibration of its image size, or the readout is out of range.
 VestCheckResult RunVestCheck(const std::string& input, const std::string& accel,
                              const std::optional<CameraIntrinsics>& premission,
-                             const VestCheckOptions& options, const std::atomic<bool>& stop,
-                             const VestCheckHooks& hooks = {});
+                             std::optional<double> readout_ms, const VestCheckOptions& options,
+                             const std::atomic<bool>& stop, const VestCheckHooks& hooks = {});
 
 }  // namespace autocal

@@ -30,7 +30,8 @@ struct CheckRun {
 // `premission`: the calibration the vest was sent out with (none: the simulator's lens,
 // the truth). Runs as the vest check dialog does.
 CheckRun RunCheck(const std::string& spec, const std::optional<CameraIntrinsics>& premission,
-                  const VestCheckOptions& options = {}) {
+                  const VestCheckOptions& options = {},
+                  std::optional<double> readout_ms = std::nullopt) {
   CheckRun run;
   VestCheckHooks hooks;
   hooks.checked = [&](const VestCheck& check) {
@@ -41,7 +42,7 @@ CheckRun RunCheck(const std::string& spec, const std::optional<CameraIntrinsics>
     run.complete = check.Complete();
   };
   const std::atomic<bool> stop{false};
-  run.result = RunVestCheck("sim:" + spec, "", premission, options, stop, hooks);
+  run.result = RunVestCheck("sim:" + spec, "", premission, readout_ms, options, stop, hooks);
   return run;
 }
 
@@ -191,6 +192,18 @@ TEST(VestCheck, RollingShutterTheSourceStatesIsUndone) {
   EXPECT_EQ(run.result.verdict, VestVerdict::kPass);
   for (const std::string& reason : run.result.reasons) ADD_FAILURE() << reason;
   EXPECT_GE(run.result.accepted_in_regime, VestCheckOptions{}.min_accepted);
+}
+
+// The readout given wins over the one the source states: the same 30 ms walk checked as a
+// global shutter (a live camera's check, told nothing) is inconclusive, few of its updates
+// accepted.
+TEST(VestCheck, ReadoutGivenWinsOverTheSources) {
+  const CheckRun run = RunCheck(std::string(kWalk) + ",readout_ms=30", std::nullopt, {}, 0.0);
+  std::printf("%s, %d of %d attempts accepted in the regime\n",
+              VestVerdictName(run.result.verdict).c_str(), run.result.accepted_in_regime,
+              run.result.attempts);
+  EXPECT_EQ(run.result.verdict, VestVerdict::kInconclusive);
+  EXPECT_LT(run.result.accepted_in_regime, VestCheckOptions{}.min_accepted);
 }
 
 TEST(VestCheck, LensThreePercentShorterFailsOnFocalLength) {

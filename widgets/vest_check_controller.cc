@@ -10,11 +10,13 @@ namespace autocal {
 
 VestCheckController::VestCheckController(QString input, QString accel,
                                          std::optional<CameraIntrinsics> premission,
+                                         std::optional<double> readout_ms,
                                          const VestCheckOptions& options, QObject* parent)
     : QObject(parent),
       input_(std::move(input)),
       accel_(std::move(accel)),
       premission_(std::move(premission)),
+      readout_ms_(readout_ms),
       options_(options) {
   qRegisterMetaType<VestCheckResult>();
   progress_.guidance = tr("Connecting…");
@@ -84,8 +86,8 @@ void VestCheckController::Run() {
       std::lock_guard lock(mutex_);
       frame_ = frame;  // Shared, not copied: the source hands out a new matrix per frame.
     };
-    result = RunVestCheck(input_.toStdString(), accel_.toStdString(), premission_, options_, stop_,
-                          hooks);
+    result = RunVestCheck(input_.toStdString(), accel_.toStdString(), premission_, readout_ms_,
+                          options_, stop_, hooks);
   } catch (const std::exception& e) {
     error = e.what();
   }

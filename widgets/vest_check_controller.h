@@ -40,9 +40,11 @@ class VestCheckController : public QObject {
  public:
   // `input` and `accel` as OpenSource takes them. `premission`: the calibration the vest was
   // sent out with; without one, the source's own (a recording's session.json, the
-  // simulator's lens).
+  // simulator's lens). `readout_ms`: the camera's rolling-shutter readout; without one, what
+  // the source states.
   VestCheckController(QString input, QString accel, std::optional<CameraIntrinsics> premission,
-                      const VestCheckOptions& options, QObject* parent = nullptr);
+                      std::optional<double> readout_ms, const VestCheckOptions& options,
+                      QObject* parent = nullptr);
   ~VestCheckController() override;
 
   // Opens the source and starts the walk; connected() or failed() follows.
@@ -69,6 +71,7 @@ class VestCheckController : public QObject {
 
   const QString input_, accel_;
   const std::optional<CameraIntrinsics> premission_;
+  const std::optional<double> readout_ms_;
   const VestCheckOptions options_;
 
   std::thread worker_;

@@ -83,6 +83,15 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   accel_->setToolTip(tr("usb for the vest's USB accelerometer; empty: the source's own"));
   premission_ = new CalibrationFileField(connect_page);
   duration_ = Spin(defaults.duration_s, 600, 0, tr(" s"), connect_page);
+  // A live camera states no readout: the technician gives the datasheet's, or what
+  // `autocal readout` measured on a walk recorded with this vest.
+  readout_ = Spin(0, 1000, 1, tr(" ms"), connect_page);
+  readout_->setMinimum(-1);
+  readout_->setSpecialValueText(tr("as the source states"));
+  readout_->setValue(-1);
+  readout_->setToolTip(
+      tr("The camera's rolling-shutter readout: the time its rows take to read, top to "
+         "bottom (0: a global shutter). A recording may state it; a live camera does not."));
   focal_tol_ = Spin(defaults.tolerance.focal_percent, 20, 2, tr(" %"), connect_page);
   principal_tol_ = Spin(defaults.tolerance.principal_px, 100, 1, tr(" px"), connect_page);
   distortion_tol_ = Spin(defaults.tolerance.distortion_px, 100, 1, tr(" px"), connect_page);
@@ -90,6 +99,7 @@ VestCheckDialog::VestCheckDialog(const QString& input, const QString& accel, QWi
   form->addRow(tr("Accelerometer:"), accel_);
   form->addRow(tr("Pre-mission calibration:"), premission_);
   form->addRow(tr("Walk for:"), duration_);
+  form->addRow(tr("Rolling-shutter readout:"), readout_);
   form->addRow(tr("Focal length within:"), focal_tol_);
   form->addRow(tr("Principal point within:"), principal_tol_);
   form->addRow(tr("Distortion within:"), distortion_tol_);
@@ -223,8 +233,10 @@ void VestCheckDialog::startCheck() {
   options.tolerance.principal_px = principal_tol_->value();
   options.tolerance.distortion_px = distortion_tol_->value();
   options_ = options;
-  controller_ =
-      std::make_unique<VestCheckController>(input_->text(), accel_->text(), premission, options);
+  const std::optional<double> readout_ms =
+      readout_->value() < 0 ? std::nullopt : std::optional<double>(readout_->value());
+  controller_ = std::make_unique<VestCheckController>(input_->text(), accel_->text(), premission,
+                                                      readout_ms, options);
   connect(controller_.get(), &VestCheckController::connected, this,
           [this](const QString& description) {
             source_label_->setText(tr("Source: %1").arg(description));

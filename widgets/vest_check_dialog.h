@@ -61,6 +61,8 @@ class VestCheckDialog : public QDialog {
   QLineEdit* accelEdit() const { return accel_; }
   QLineEdit* premissionEdit() const;
   QDoubleSpinBox* durationSpin() const { return duration_; }
+  // The camera's rolling-shutter readout (ms); at its minimum, "as the source states".
+  QDoubleSpinBox* readoutSpin() const { return readout_; }
 
  public slots:
   // Starts the walk with the connect page's settings.
@@ -85,6 +87,7 @@ class VestCheckDialog : public QDialog {
   QLineEdit* accel_ = nullptr;
   CalibrationFileField* premission_ = nullptr;
   QDoubleSpinBox* duration_ = nullptr;
+  QDoubleSpinBox* readout_ = nullptr;
   QDoubleSpinBox* focal_tol_ = nullptr;
   QDoubleSpinBox* principal_tol_ = nullptr;
   QDoubleSpinBox* distortion_tol_ = nullptr;

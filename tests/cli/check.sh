@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `autocal check`, the vest check headless: a short simulated walk with the vest's own lens
-# passes (exit 0); a camera at rest is inconclusive (exit 4) and says what was missing; bad
-# usage exits 2.
+# passes (exit 0); a camera at rest is inconclusive (exit 4) and says what was missing; a
+# readout given wins over the source's; bad usage exits 2.
 set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
@@ -23,6 +23,18 @@ cat "$dir/out"
 [ "$(head -1 "$dir/out")" = INCONCLUSIVE ] || fail "the inconclusive verdict"
 grep -q 'missing: Turning' "$dir/out" || fail "what was missing"
 
+# The readout given wins over the source's: the walk's rows read over 30 ms, checked as a
+# global shutter, has no update accepted.
+code=0
+"$autocal" check --input "sim:office,resolution=320x240,seconds=8,readout_ms=30" --readout-ms 0 \
+  >"$dir/out" 2>"$dir/err" || code=$?
+[ "$code" = 4 ] || fail "a rolling shutter checked as a global one is inconclusive (exit $code)"
+grep -q '0 accepted in the current regime' "$dir/out" || fail "no update accepted"
+
+code=0
+"$autocal" check --input sim:office --readout-ms -3 >/dev/null 2>"$dir/err" || code=$?
+[ "$code" = 2 ] || fail "a negative readout is bad usage (exit $code)"
+grep -q 'readout-ms' "$dir/err" || fail "the bad option is named"
 code=0
 "$autocal" check --input sim:office --seconds -1 >/dev/null 2>&1 || code=$?
 [ "$code" = 2 ] || fail "a negative walk is bad usage (exit $code)"

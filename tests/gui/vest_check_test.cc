@@ -187,6 +187,28 @@ class VestCheckTest : public QObject {
     SaveScreenshot(dialog, QStringLiteral("vest_check_inconclusive.png"));
   }
 
+  // The readout field: "as the source states" until set. The simulated vest's rows read
+  // over 30 ms, which it states; given 0 (a global shutter, as a live camera's check told
+  // nothing would take) the walk has no update accepted: inconclusive, where as stated it
+  // passes (RunsToItsVerdictAndSavesTheReport's walk, and tests/vest_check_test.cc).
+  void ReadoutGivenReachesTheCheck() {
+    VestCheckDialog dialog(kVest + QStringLiteral(",readout_ms=30"));
+    dialog.show();
+    QVERIFY(QTest::qWaitForWindowExposed(&dialog));
+    QDoubleSpinBox* readout = dialog.readoutSpin();
+    QVERIFY(readout);
+    QCOMPARE(readout->text(), QStringLiteral("as the source states"));
+    readout->setValue(0.0);
+    QCOMPARE(readout->text(), QStringLiteral("0.0 ms"));
+    SaveScreenshot(dialog, QStringLiteral("vest_check_connect.png"));
+    QSignalSpy finished(&dialog, &VestCheckDialog::checkFinished);
+    dialog.startCheck();
+    QVERIFY(finished.wait(180000) || !finished.isEmpty());
+    QVERIFY(dialog.result());
+    QCOMPARE(dialog.result()->verdict, VestVerdict::kInconclusive);
+    QCOMPARE(dialog.result()->accepted_in_regime, 0);
+  }
+
   // Fog and a noise burst during the walk (the simulator's transient scenario, 8 to 12 s):
   // while the images are unfit the guidance says to wipe the lens, and the unfit stretch is
   // reported and not counted as walking.
