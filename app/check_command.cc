@@ -27,6 +27,11 @@ void PrintResult(const VestCheckResult& result) {
       "%.1f s walked, %d frames; calibration updates: %d attempted, %d accepted in the "
       "current regime\n",
       result.seconds, result.frames, result.attempts, result.accepted_in_regime);
+  if (result.readout_ms > 0) {
+    std::printf("measured with a rolling shutter, rows read over %.1f ms\n", result.readout_ms);
+  } else {
+    std::printf("measured with a global shutter (no readout given or stated)\n");
+  }
   if (!result.criteria.empty()) {
     std::printf("%-11s %12s %12s %11s %10s  %s\n", "parameter", "pre-mission", "measured",
                 "difference", "tolerance", "verdict");

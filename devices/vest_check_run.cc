@@ -94,7 +94,9 @@ VestCheckResult RunVestCheck(const std::string& input, const std::string& accel,
   if (ended) release(true);  // The source's last frames, with no more samples to come.
   runtime.Finish();
   source->Stop();
-  return check.Result();
+  VestCheckResult result = check.Result();
+  result.readout_ms = pipeline.calibration.readout_ms;
+  return result;
 }
 
 }  // namespace autocal

@@ -94,6 +94,9 @@ struct VestCheckResult {
   // Walk time whose images box 9 found unfit (fog, noise): it counts towards no need.
   double unfit_s = 0.0;
   std::vector<std::string> alarms;  // "2.5 s: jump in fx ..." (the attempts that raised one).
+  // The camera's rolling-shutter readout the walk was measured with (ms; 0: a global
+  // shutter): set by whoever runs the pipeline (RunVestCheck), for the record.
+  double readout_ms = 0.0;
 };
 
 class VestCheck {

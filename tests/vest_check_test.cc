@@ -189,6 +189,7 @@ TEST(VestCheck, WalkWithThePremissionLensPasses) {
 // walk had none of its 14 attempts accepted: inconclusive.
 TEST(VestCheck, RollingShutterTheSourceStatesIsUndone) {
   const CheckRun run = RunCheck(std::string(kWalk) + ",readout_ms=30", std::nullopt);
+  EXPECT_EQ(run.result.readout_ms, 30.0) << "the readout measured with, for the record";
   EXPECT_EQ(run.result.verdict, VestVerdict::kPass);
   for (const std::string& reason : run.result.reasons) ADD_FAILURE() << reason;
   EXPECT_GE(run.result.accepted_in_regime, VestCheckOptions{}.min_accepted);
@@ -204,6 +205,7 @@ TEST(VestCheck, ReadoutGivenWinsOverTheSources) {
               run.result.attempts);
   EXPECT_EQ(run.result.verdict, VestVerdict::kInconclusive);
   EXPECT_LT(run.result.accepted_in_regime, VestCheckOptions{}.min_accepted);
+  EXPECT_EQ(run.result.readout_ms, 0.0);
 }
 
 TEST(VestCheck, LensThreePercentShorterFailsOnFocalLength) {

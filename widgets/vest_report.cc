@@ -99,6 +99,10 @@ QString VestReportHtml(const VestReport& report) {
                                    .arg(Number(r.seconds, 1))
                                    .arg(r.frames)
                                    .arg(Number(o.duration_s, 0)));
+  info(QStringLiteral("Shutter"),
+       r.readout_ms > 0
+           ? QStringLiteral("rolling, rows read over %1 ms").arg(Number(r.readout_ms, 1))
+           : QStringLiteral("global (no readout given or stated)"));
   if (r.unfit_s > 0.0) {
     info(QStringLiteral("Unfit images"),
          QStringLiteral("%1 s (fog, blur or noise: not counted)").arg(Number(r.unfit_s, 1)));

@@ -30,6 +30,7 @@ code=0
   >"$dir/out" 2>"$dir/err" || code=$?
 [ "$code" = 4 ] || fail "a rolling shutter checked as a global one is inconclusive (exit $code)"
 grep -q '0 accepted in the current regime' "$dir/out" || fail "no update accepted"
+grep -q '^measured with a global shutter' "$dir/out" || fail "the shutter measured with is said"
 
 code=0
 "$autocal" check --input sim:office --readout-ms -3 >/dev/null 2>"$dir/err" || code=$?

@@ -255,7 +255,9 @@ class VestCheckTest : public QObject {
     report.result.coverage = {
         {VestNeed::kRotation, "Turning", "0.5 of 2.0 s", 0.25, false, true},
         {VestNeed::kStill, "Holding still", "0.0 of 2.0 s", 0.0, false, false}};
+    report.result.readout_ms = 30.0;
     const QString html = VestReportHtml(report);
+    QVERIFY(html.contains(QStringLiteral("rolling, rows read over 30.0 ms")));
     QVERIFY(html.contains(QStringLiteral("Verdict: FAIL")));
     QVERIFY(html.contains(QStringLiteral("have the vest recalibrated")));
     QVERIFY(html.contains(QStringLiteral("fx is 3.62% below the pre-mission value")));
