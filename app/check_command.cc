@@ -30,7 +30,7 @@ void PrintResult(const VestCheckResult& result) {
   if (result.readout_ms > 0) {
     std::printf("measured with a rolling shutter, rows read over %.1f ms\n", result.readout_ms);
   } else {
-    std::printf("measured with a global shutter (no readout given or stated)\n");
+    std::printf("measured with a global shutter (readout 0 ms)\n");
   }
   if (!result.criteria.empty()) {
     std::printf("%-11s %12s %12s %11s %10s  %s\n", "parameter", "pre-mission", "measured",

@@ -102,7 +102,7 @@ QString VestReportHtml(const VestReport& report) {
   info(QStringLiteral("Shutter"),
        r.readout_ms > 0
            ? QStringLiteral("rolling, rows read over %1 ms").arg(Number(r.readout_ms, 1))
-           : QStringLiteral("global (no readout given or stated)"));
+           : QStringLiteral("global (readout 0 ms)"));
   if (r.unfit_s > 0.0) {
     info(QStringLiteral("Unfit images"),
          QStringLiteral("%1 s (fog, blur or noise: not counted)").arg(Number(r.unfit_s, 1)));
