@@ -36,8 +36,9 @@ const std::map<QString, Subcommand>& Subcommands() {
       {"bench",
        {autocal::cli::Bench, "time the whole pipeline on a simulated recording (fps, latency)"}},
       {"check",
-       {autocal::cli::Check, "the vest check: walk, then pass / fail against the pre-mission "
-                             "calibration"}},
+       {autocal::cli::Check,
+        "the vest check: walk, then pass / fail against the pre-mission "
+        "calibration"}},
   };
   return kSubcommands;
 }

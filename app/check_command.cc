@@ -100,14 +100,9 @@ int Check(const QStringList& arguments) {
   }
   std::string why;
   if (!options.Check(&why)) return UsageError(name, QString::fromStdString(why), parser);
-  std::optional<double> readout_ms;
-  if (parser.isSet("readout-ms")) {
-    bool ok = false;
-    readout_ms = parser.value("readout-ms").toDouble(&ok);
-    if (!ok || !(*readout_ms >= 0 && *readout_ms <= 1000)) {
-      return UsageError(name, "--readout-ms takes milliseconds in [0, 1000]", parser);
-    }
-  }
+  QString bad_readout;
+  const std::optional<double> readout_ms = ReadoutMsOption(parser, &bad_readout);
+  if (!bad_readout.isEmpty()) return UsageError(name, bad_readout, parser);
 
   try {
     std::optional<CameraIntrinsics> premission;

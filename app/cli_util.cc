@@ -6,6 +6,7 @@
 
 #include "pipeline/error.h"
 #include "pipeline/option_fields.h"
+#include "pipeline/self_calibration.h"
 
 namespace autocal::cli {
 
@@ -60,6 +61,15 @@ PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser, const Pipe
   std::string why;
   if (!options.Check(&why)) throw Error("pipeline options: " + why);
   return options;
+}
+
+std::optional<double> ReadoutMsOption(const QCommandLineParser& parser, QString* error) {
+  if (!parser.isSet("readout-ms")) return std::nullopt;
+  bool ok = false;
+  const double ms = parser.value("readout-ms").toDouble(&ok);
+  if (ok && IsReadoutMs(ms)) return ms;
+  *error = QStringLiteral("--readout-ms takes milliseconds in [0, %1]").arg(kMaxReadoutMs);
+  return std::nullopt;
 }
 
 void ReportRollingShutter(const char* name, const SessionInfo& session,

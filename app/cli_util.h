@@ -36,6 +36,10 @@ std::optional<QString> MalformedSetting(const QCommandLineParser& parser);
 PipelineOptions PipelineOptionsFrom(const QCommandLineParser& parser,
                                     const PipelineOptions& base = {});
 
+// --readout-ms (milliseconds in [0, kMaxReadoutMs]), for the subcommands that take it: none
+// when not given; when it is not such a number, none and a usage error's message in `error`.
+std::optional<double> ReadoutMsOption(const QCommandLineParser& parser, QString* error);
+
 // On stderr, for subcommand `name`: the recording's rolling shutter undone, or a warning
 // when `options` (the user's settings) measure it with another readout.
 void ReportRollingShutter(const char* name, const SessionInfo& session,

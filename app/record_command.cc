@@ -90,13 +90,9 @@ int Record(const QStringList& arguments) {
     }
   }
 
-  if (parser.isSet("readout-ms")) {
-    bool ok = false;
-    options.readout_ms = parser.value("readout-ms").toDouble(&ok);
-    if (!ok || !(*options.readout_ms >= 0 && *options.readout_ms <= 1000)) {
-      return UsageError(name, "--readout-ms takes milliseconds in [0, 1000]", parser);
-    }
-  }
+  QString bad_readout;
+  options.readout_ms = ReadoutMsOption(parser, &bad_readout);
+  if (!bad_readout.isEmpty()) return UsageError(name, bad_readout, parser);
 
   try {
     const std::string out = parser.value("out").toStdString();

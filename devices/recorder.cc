@@ -16,6 +16,7 @@
 #include "devices/recording_writer.h"
 #include "devices/session_io.h"
 #include "pipeline/error.h"
+#include "pipeline/self_calibration.h"
 
 namespace fs = std::filesystem;
 
@@ -241,8 +242,8 @@ bool RecorderOptions::Check(std::string* error) const {
     *error = "writer_queue_frames: at least 1";
   } else if (!(progress_interval_s > 0)) {
     *error = "progress_interval_s: must be positive";
-  } else if (readout_ms && !(*readout_ms >= 0 && *readout_ms <= 1000)) {
-    *error = "readout_ms: must be in [0, 1000]";
+  } else if (readout_ms && !IsReadoutMs(*readout_ms)) {
+    *error = "readout_ms: must be in [0, " + std::to_string(int(kMaxReadoutMs)) + "]";
   } else {
     return true;
   }

@@ -10,6 +10,7 @@
 #include "devices/runtime.h"
 #include "devices/source.h"
 #include "pipeline/error.h"
+#include "pipeline/self_calibration.h"
 
 namespace autocal {
 
@@ -18,9 +19,9 @@ VestCheckResult RunVestCheck(const std::string& input, const std::string& accel,
                              std::optional<double> readout_ms, const VestCheckOptions& options,
                              const std::atomic<bool>& stop, const VestCheckHooks& hooks) {
   // Before the camera opens: a bad number is the news, not a device.
-  if (readout_ms && !(*readout_ms >= 0 && *readout_ms <= 1000)) {
-    throw Error("the rolling-shutter readout must be in [0, 1000] ms, got " +
-                std::to_string(*readout_ms));
+  if (readout_ms && !IsReadoutMs(*readout_ms)) {
+    throw Error("the rolling-shutter readout must be in [0, " + std::to_string(int(kMaxReadoutMs)) +
+                "] ms, got " + std::to_string(*readout_ms));
   }
   const std::unique_ptr<FrameSource> source = OpenSource(input, accel);
   source->Start();

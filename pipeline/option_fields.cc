@@ -7,6 +7,7 @@
 #include <type_traits>
 
 #include "pipeline/error.h"
+#include "pipeline/self_calibration.h"
 #include "pipeline/text_format.h"
 
 namespace autocal {
@@ -535,7 +536,7 @@ std::vector<OptionField> MakeFields() {
                     "the last pass also ends once two iterations in a row each move the "
                     "calibration's image by less than this (px; 0: only by the cost)",
                     &P::calibration, &C::still_intrinsics_px),
-      Field<double>("calibration.readout_ms", 0, 1000,
+      Field<double>("calibration.readout_ms", 0, kMaxReadoutMs,
                     "the camera's rolling shutter reads its rows top to bottom over this time "
                     "(ms; 0: a global shutter; a recording that states it sets it)",
                     &P::calibration, &C::readout_ms),

@@ -50,8 +50,8 @@ bool SelfCalibrationOptions::Check(std::string* error) const {
     why << "warm_start_max_median_px must be positive";
   } else if (!(max_point_rms_ratio == 0 || max_point_rms_ratio >= 1)) {
     why << "max_point_rms_ratio must be 0 (none left out) or at least 1";
-  } else if (!(readout_ms >= 0 && readout_ms <= 1000)) {
-    why << "readout_ms must be in [0, 1000]";
+  } else if (!IsReadoutMs(readout_ms)) {
+    why << "readout_ms must be in [0, " << kMaxReadoutMs << "]";
   }
   if (why.str().empty()) return true;
   if (error) *error = why.str();

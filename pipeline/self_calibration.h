@@ -71,6 +71,11 @@ struct CalibrationMaterial {
   std::optional<CalibrationStart> start;
 };
 
+// A camera's rolling-shutter readout (ms): 0 (a global shutter) to this, a frame period at
+// 1 frame/s; every place that takes one holds it to this range.
+inline constexpr double kMaxReadoutMs = 1000.0;
+inline bool IsReadoutMs(double ms) { return ms >= 0 && ms <= kMaxReadoutMs; }
+
 struct SelfCalibrationOptions {
   bool estimate_principal_point = true;  // cx, cy free.
   bool estimate_distortion = true;       // k1, k2 free.
