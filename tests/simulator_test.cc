@@ -12,6 +12,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
 
 #include "devices/sim/accelerometer.h"
 #include "devices/sim/lens.h"
@@ -667,6 +668,9 @@ TEST(ScenarioTest, OverridesAndSpecs) {
   ApplyScenarioOverride(&s, "readout_ms", "30");
   EXPECT_EQ(s.image.readout_ms, 30.0);
   EXPECT_THROW(ApplyScenarioOverride(&s, "readout_ms", "70"), Error);  // Over 1/15 s.
+  ApplyScenarioOverride(&s, "exposure_ms", "20");
+  EXPECT_EQ(s.image.exposure_ms, 20.0);
+  EXPECT_THROW(ApplyScenarioOverride(&s, "exposure_ms", "70"), Error);
   EXPECT_EQ(s.accelerometer.rate_hz, 800.0);  // Failed overrides change nothing.
   EXPECT_THROW(ParseScenarioSpec("office,lens"), Error);
   EXPECT_THROW(ParseScenarioSpec("nowhere"), Error);
@@ -700,6 +704,84 @@ TEST_F(SimulatorTest, RollingShutterRowsAreTakenAroundTheFramesTime) {
     differing_from_frame_time += cv::countNonZero(global_at(t).row(v) != own);
   }
   EXPECT_GT(differing_from_frame_time, 0);  // The walk turns enough to tell.
+}
+
+// With an exposure each pixel gathers the light over it: near the image's centre the frame
+// is the instantaneous one smeared along the image's motion over the exposure, by the
+// whole of that motion (not by none, half or more).
+TEST_F(SimulatorTest, ExposureSmearsAlongTheImagesMotion) {
+  Scenario s = Small("office");
+  s.seconds = 6.0;
+  s.image.noise_sigma = 0.0;
+  s.image.vignetting = 0.0;
+  s.image.chromatic_px = 0.0;
+  s.image.exposure_ms = 20.0;
+  const auto sequence = MakeSimulatedSequence(s);
+  const auto& truth = *sequence->ground_truth();
+  size_t index = 1;  // The frame of the walk's fastest turn.
+  double fastest = 0.0;
+  for (size_t i = 1; i < truth.size(); ++i) {
+    const double turn =
+        truth[i - 1].world_from_cam_rotation.angularDistance(truth[i].world_from_cam_rotation);
+    if (turn > fastest) fastest = turn, index = i;
+  }
+  const Trajectory trajectory(s.motion, s.scene);
+  const Renderer renderer(office_);
+  const double t = s.SecondsAt(truth[index].t_ns);
+  const auto sharp_at = [&](double at) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = trajectory.WorldFromCamAt(at);
+    pose.translation() = trajectory.PositionAt(at);
+    cv::Mat grey;
+    cv::cvtColor(renderer.Render(truth[index].intrinsics, pose, {}).image, grey,
+                 cv::COLOR_BGR2GRAY);
+    return grey;
+  };
+
+  // The image's motion over the exposure near the centre, tracked between its two ends.
+  const cv::Rect centre(s.width / 2 - 50, s.height / 2 - 40, 100, 80);
+  std::vector<cv::Point2f> from, to;
+  for (int y = centre.y + 5; y < centre.br().y; y += 10) {
+    for (int x = centre.x + 5; x < centre.br().x; x += 10) from.emplace_back(x, y);
+  }
+  std::vector<uchar> found;
+  std::vector<float> errors;
+  cv::calcOpticalFlowPyrLK(sharp_at(t - 0.010), sharp_at(t + 0.010), from, to, found, errors);
+  std::vector<double> dx, dy;
+  for (size_t i = 0; i < from.size(); ++i) {
+    if (!found[i]) continue;
+    dx.push_back(to[i].x - from[i].x);
+    dy.push_back(to[i].y - from[i].y);
+  }
+  ASSERT_GT(dx.size(), from.size() / 2);
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const cv::Point2d motion(median(dx), median(dy));
+  ASSERT_GT(cv::norm(motion), 4.0) << "the walk should turn fast enough to smear";
+
+  cv::Mat frame, middle;
+  cv::cvtColor(sequence->LoadFrame(index), frame, cv::COLOR_BGR2GRAY);
+  sharp_at(t).convertTo(middle, CV_32F);
+  frame.convertTo(frame, CV_32F);
+  // The instantaneous frame averaged over shifts spanning `fraction` of the motion.
+  const auto rms_smeared = [&](double fraction) {
+    constexpr int kShifts = 41;
+    cv::Mat sum = cv::Mat::zeros(middle.size(), CV_32F), moved;
+    for (int j = 0; j < kShifts; ++j) {
+      const double f = fraction * (double(j) / (kShifts - 1) - 0.5);
+      const cv::Matx23d shift(1, 0, f * motion.x, 0, 1, f * motion.y);
+      cv::warpAffine(middle, moved, shift, middle.size(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+      sum += moved;
+    }
+    const cv::Mat difference = frame(centre) - sum(centre) / kShifts;
+    return std::sqrt(cv::mean(difference.mul(difference))[0]);
+  };
+  const double unsmeared = rms_smeared(0.0), whole = rms_smeared(1.0);
+  EXPECT_LT(whole, 0.3 * unsmeared) << "motion " << motion;
+  EXPECT_LT(whole, rms_smeared(0.5));
+  EXPECT_LT(whole, rms_smeared(1.5));
 }
 
 TEST_F(SimulatorTest, SequenceDescribesItselfAndItsTruth) {

@@ -446,17 +446,15 @@ cv::Mat Renderer::RenderLabels(const CameraIntrinsics& intrinsics,
   return labels;
 }
 
-RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
-                               const Eigen::Isometry3d& world_from_cam,
-                               const RenderOptions& options) const {
-  const auto rays = Rays(intrinsics);
-  const RayTable& table = *rays;
-  const Scene& scene = *scene_;
+namespace {
+
+// The light reaching each pixel at one instant (CV_32FC3, linear BGR) and the plane each
+// pixel centre sees.
+cv::Mat Radiance(const Scene& scene, const RayTable& table, const CameraIntrinsics& intrinsics,
+                 const RowPlanes& row_planes, int supersampling, cv::Mat* labels) {
   const int width = table.width, height = table.height;
-  const RowPlanes row_planes(scene, world_from_cam, options.world_from_cam_by_row, height);
   cv::Mat colour(height, width, CV_32FC3);
-  RenderedFrame frame;
-  frame.labels.create(height, width, CV_16U);
+  labels->create(height, width, CV_16U);
 
   // Pass 1: one ray per pixel centre gives the label and the colour. Pixels are visited
   // in blocks of kTileWidth x kBandHeight, whose texels stay in cache.
@@ -467,7 +465,7 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
       for (int t = 0; t < table.tiles_per_row; ++t) {
         for (int v = band * kBandHeight; v < std::min(height, (band + 1) * kBandHeight); ++v) {
           const std::vector<CamPlane>& planes = row_planes[v];
-          uint16_t* label = frame.labels.ptr<uint16_t>(v);
+          uint16_t* label = labels->ptr<uint16_t>(v);
           cv::Vec3f* out = colour.ptr<cv::Vec3f>(v);
           const int count = table.Candidates(planes, v, t, candidates.data());
           for (int u = t * kTileWidth; u < std::min(width, (t + 1) * kTileWidth); ++u) {
@@ -491,16 +489,16 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
 
   // Pass 2: where a neighbour sees another plane, average S x S sub-pixel rays, so that
   // silhouettes are antialiased like a real sensor's area integration.
-  const int s = std::max(1, options.supersampling);
+  const int s = std::max(1, supersampling);
   if (s > 1) {
     const double* k = table.dist.data();
     cv::parallel_for_(cv::Range(0, height), [&](const cv::Range& rows) {
       std::vector<int> candidates(row_planes.most() + 1);
       for (int v = rows.start; v < rows.end; ++v) {
         const std::vector<CamPlane>& planes = row_planes[v];
-        const uint16_t* above = frame.labels.ptr<uint16_t>(std::max(0, v - 1));
-        const uint16_t* here = frame.labels.ptr<uint16_t>(v);
-        const uint16_t* below = frame.labels.ptr<uint16_t>(std::min(height - 1, v + 1));
+        const uint16_t* above = labels->ptr<uint16_t>(std::max(0, v - 1));
+        const uint16_t* here = labels->ptr<uint16_t>(v);
+        const uint16_t* below = labels->ptr<uint16_t>(std::min(height - 1, v + 1));
         cv::Vec3f* out = colour.ptr<cv::Vec3f>(v);
         for (int t = 0; t < table.tiles_per_row; ++t) {
           int count = -1;
@@ -537,6 +535,33 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
         }
       }
     });
+  }
+
+  return colour;
+}
+
+}  // namespace
+
+RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
+                               const Eigen::Isometry3d& world_from_cam,
+                               const RenderOptions& options) const {
+  const auto rays = Rays(intrinsics);
+  const RayTable& table = *rays;
+  const int width = table.width, height = table.height;
+  RenderedFrame frame;
+  cv::Mat colour =
+      Radiance(*scene_, table, intrinsics,
+               RowPlanes(*scene_, world_from_cam, options.world_from_cam_by_row, height),
+               options.supersampling, &frame.labels);
+  if (!options.blur_instants.empty()) {
+    cv::Mat instant_labels;
+    for (const ExposureInstant& instant : options.blur_instants) {
+      colour += Radiance(
+          *scene_, table, intrinsics,
+          RowPlanes(*scene_, instant.world_from_cam, instant.world_from_cam_by_row, height),
+          options.supersampling, &instant_labels);
+    }
+    colour *= 1.0 / (1.0 + static_cast<double>(options.blur_instants.size()));
   }
 
   // Sensor effects: fog (blur, lost contrast), lateral colour, vignetting, noise.

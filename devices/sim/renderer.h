@@ -1,7 +1,8 @@
 // Renders a scene through the exact lens model: every pixel's ray is the undistorted
 // (Newton-inverted) normalized coordinate of its distorted one, intersected with the
 // scene's planes; plane boundaries are supersampled and textures filtered by footprint.
-// Sensor effects (fog, lateral colour, vignetting, noise) follow.
+// Light is averaged over the exposure's instants (motion blur); sensor effects (fog,
+// lateral colour, vignetting, noise) follow.
 #pragma once
 
 #include <cstdint>
@@ -19,11 +20,20 @@
 
 namespace autocal {
 
+// One instant of an exposure: the camera's pose and, for a rolling shutter, each row's.
+struct ExposureInstant {
+  Eigen::Isometry3d world_from_cam = Eigen::Isometry3d::Identity();
+  std::vector<Eigen::Isometry3d> world_from_cam_by_row;
+};
+
 struct RenderOptions {
   int supersampling = 3;    // Sub-rays per side where a neighbour sees another plane; 1: none.
   // Rolling shutter: the camera's pose for each row (as many as the image has rows);
   // empty: the pose passed to Render for every row (a global shutter).
   std::vector<Eigen::Isometry3d> world_from_cam_by_row;
+  // Motion blur: the exposure's other instants, whose light is averaged with that at the
+  // pose passed to Render (which alone gives the labels). Empty: an instantaneous exposure.
+  std::vector<ExposureInstant> blur_instants;
   FrameEffects effects;     // Fog, colour fringes, vignetting and noise of this frame.
   uint64_t noise_seed = 1;  // Seeds this frame's sensor noise.
 };

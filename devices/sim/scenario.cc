@@ -95,6 +95,9 @@ bool Scenario::Check(std::string* error) const {
   } else if (!in(image.readout_ms, 0.0, 1000.0 / fps)) {
     why << "image.readout_ms: must be in [0, " << 1000.0 / fps << "] (at most a frame period), got "
         << image.readout_ms;
+  } else if (!in(image.exposure_ms, 0.0, 1000.0 / fps)) {
+    why << "image.exposure_ms: must be in [0, " << 1000.0 / fps
+        << "] (at most a frame period), got " << image.exposure_ms;
   } else if (checkerboard.squares_x < 3 || checkerboard.squares_y < 3 ||
              checkerboard.squares_x > 40 || checkerboard.squares_y > 40 ||
              !in(checkerboard.square_m, 0.005, 1.0)) {

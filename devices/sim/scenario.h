@@ -53,6 +53,9 @@ struct ImageOptions {
   // Rolling shutter: rows are read top to bottom, one every readout_ms / height, the middle
   // row at the frame's time (its ground-truth pose). 0: a global shutter.
   double readout_ms = 0.0;
+  // Motion blur: each row gathers light over exposure_ms centred on its read time. 0: an
+  // instant.
+  double exposure_ms = 0.0;
 };
 
 // A change of the true intrinsics, ramping linearly from `start` to `end` (equal: a step)

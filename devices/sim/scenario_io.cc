@@ -243,11 +243,13 @@ class ScenarioReader {
   void Image(const cv::FileNode& node, ImageOptions* image) const {
     if (!node.isMap()) Fail("image", "expected a map of fields");
     Keys(node, "image.",
-         {"noise_sigma", "vignetting", "chromatic_px", "supersampling", "readout_ms"});
+         {"noise_sigma", "vignetting", "chromatic_px", "supersampling", "readout_ms",
+          "exposure_ms"});
     Optional(node, "noise_sigma", "image.", &image->noise_sigma);
     Optional(node, "vignetting", "image.", &image->vignetting);
     Optional(node, "chromatic_px", "image.", &image->chromatic_px);
     Optional(node, "readout_ms", "image.", &image->readout_ms);
+    Optional(node, "exposure_ms", "image.", &image->exposure_ms);
     if (!node["supersampling"].empty()) {
       image->supersampling = Integer(node["supersampling"], "image.supersampling");
     }
@@ -396,11 +398,13 @@ void SetField(Scenario* scenario, const std::string& key, const std::string& val
     integer(&s.image.supersampling, 1, 8);
   } else if (key == "readout_ms") {
     number(&s.image.readout_ms);
+  } else if (key == "exposure_ms") {
+    number(&s.image.exposure_ms);
   } else {
     throw Error("unknown scenario override '" + key +
                 "', expected one of: scene, lens, motion, seconds, fps, resolution, seed, "
                 "accel_rate, accel_noise, accel_range_g, accel_bits, noise_sigma, vignetting, "
-                "chromatic_px, supersampling, readout_ms");
+                "chromatic_px, supersampling, readout_ms, exposure_ms");
   }
 }
 

@@ -1,5 +1,6 @@
 // The simulated Sequence: ground truth and accelerometer computed at construction (cheap),
 // frames rendered on demand.
+#include <algorithm>
 #include <cstdio>
 #include <deque>
 #include <memory>
@@ -79,7 +80,8 @@ class SimulatedSequence : public Sequence {
     options.supersampling = scenario_.image.supersampling;
     options.effects = EffectsAt(scenario_, scenario_.SecondsAt(truth.t_ns));
     options.noise_seed = MixSeed(scenario_.seed, kFrameNoiseStream, index);
-    options.world_from_cam_by_row = RowPoses(truth);
+    options.world_from_cam_by_row = RowPoses(scenario_.SecondsAt(truth.t_ns));
+    options.blur_instants = BlurInstants(truth);
     cv::Mat image = renderer().Render(truth.intrinsics, Pose(truth), options).image;
     const std::lock_guard lock(recent_mutex_);
     recent_.emplace_back(index, image.clone());
@@ -93,7 +95,8 @@ class SimulatedSequence : public Sequence {
 
   std::optional<cv::Mat> LoadPlaneLabels(size_t index) const override {
     const GroundTruthFrame& truth = Truth(index);
-    return renderer().RenderLabels(truth.intrinsics, Pose(truth), RowPoses(truth));
+    return renderer().RenderLabels(truth.intrinsics, Pose(truth),
+                                   RowPoses(scenario_.SecondsAt(truth.t_ns)));
   }
 
   std::optional<std::string> SceneDescription() const override {
@@ -129,13 +132,12 @@ class SimulatedSequence : public Sequence {
   // handed out, as callers own what they get. More than the runtime's queues hold.
   static constexpr size_t kRecentFrames = 12;
 
-  // A rolling shutter's pose for each row, the middle row at the frame's time; empty for a
-  // global shutter.
-  std::vector<Eigen::Isometry3d> RowPoses(const GroundTruthFrame& truth) const {
+  // A rolling shutter's pose for each row, the middle row at time t; empty for a global
+  // shutter.
+  std::vector<Eigen::Isometry3d> RowPoses(double t) const {
     std::vector<Eigen::Isometry3d> poses;
     const double line_s = 1e-3 * scenario_.image.readout_ms / scenario_.height;
     if (line_s <= 0.0) return poses;
-    const double t = scenario_.SecondsAt(truth.t_ns);
     poses.resize(scenario_.height, Eigen::Isometry3d::Identity());
     for (int v = 0; v < scenario_.height; ++v) {
       const double row_t = t + (v - 0.5 * (scenario_.height - 1)) * line_s;
@@ -144,6 +146,37 @@ class SimulatedSequence : public Sequence {
     }
     return poses;
   }
+
+  // Motion blur: the exposure cut into equal slices, an odd number of them so that the
+  // middle one is at the frame's time, few enough that the image's centre moves about a
+  // pixel from one to the next (the rotation at the focal length, the translation seen at
+  // kNearestSurfaceM); the instants other than the middle one. Empty for an instant.
+  std::vector<ExposureInstant> BlurInstants(const GroundTruthFrame& truth) const {
+    std::vector<ExposureInstant> instants;
+    const double exposure_s = 1e-3 * scenario_.image.exposure_ms;
+    if (exposure_s <= 0.0) return instants;
+    const double t = scenario_.SecondsAt(truth.t_ns);
+    const double start = t - 0.5 * exposure_s, end = t + 0.5 * exposure_s;
+    const double turn = Eigen::AngleAxisd(trajectory_.WorldFromCamAt(start).transpose() *
+                                          trajectory_.WorldFromCamAt(end))
+                            .angle();
+    const double shift_m = (trajectory_.PositionAt(end) - trajectory_.PositionAt(start)).norm();
+    const double focal_px = std::max(truth.intrinsics.fx, truth.intrinsics.fy);
+    const double travel_px = focal_px * (turn + shift_m / kNearestSurfaceM);
+    const int slices = std::min(kMostExposureSlices, 2 * static_cast<int>(travel_px / 2.0) + 1);
+    for (int j = 0; j < slices; ++j) {
+      if (2 * j + 1 == slices) continue;
+      const double instant_t = t + exposure_s * ((j + 0.5) / slices - 0.5);
+      ExposureInstant instant;
+      instant.world_from_cam.linear() = trajectory_.WorldFromCamAt(instant_t);
+      instant.world_from_cam.translation() = trajectory_.PositionAt(instant_t);
+      instant.world_from_cam_by_row = RowPoses(instant_t);
+      instants.push_back(std::move(instant));
+    }
+    return instants;
+  }
+  static constexpr double kNearestSurfaceM = 0.5;
+  static constexpr int kMostExposureSlices = 31;
 
   Scenario scenario_;
   Trajectory trajectory_;
