@@ -157,7 +157,8 @@ FrameSnapshot MotionHalf::Process(LensFrame frame, std::optional<CalibrationJob>
 
   start = std::chrono::steady_clock::now();
   snapshot.quality = frame.quality;
-  if (auto degraded = quality_gate_.Judge(frame.t_ns, frame.quality)) {
+  const std::optional<double> image_speed_px = ImageSpeedPx(snapshot.motion.tracks);
+  if (auto degraded = quality_gate_.Judge(frame.t_ns, frame.quality, image_speed_px)) {
     snapshot.degraded = *degraded;
     last_degraded_ns_ = frame.t_ns;
     last_degraded_ = *degraded;

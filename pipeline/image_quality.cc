@@ -134,6 +134,17 @@ ImageQuality MeasureImageQuality(const cv::Mat& image) {
   return quality;
 }
 
+std::optional<double> ImageSpeedPx(const std::vector<Track>& tracks) {
+  std::vector<double> flow;
+  for (const Track& track : tracks) {
+    if (const TrackPoint* before = track.FramesAgo(1)) {
+      flow.push_back(cv::norm(track.current() - before->pixel));
+    }
+  }
+  if (flow.empty()) return std::nullopt;
+  return Median(std::move(flow));
+}
+
 bool ImageQualityOptions::Check(std::string* error) const {
   auto fail = [&](const std::string& what) {
     if (error) *error = what;
@@ -154,17 +165,21 @@ bool ImageQualityOptions::Check(std::string* error) const {
   if (!(min_contrast_ratio > 0.0 && min_contrast_ratio <= 1.0)) {
     return fail("min_contrast_ratio must be in (0, 1]");
   }
+  if (!(motion_blur_speed_px > 0.0)) return fail("motion_blur_speed_px must be > 0");
   if (!(accept_as_usual_s > 0.0)) return fail("accept_as_usual_s must be > 0");
   return true;
 }
 
 ImageQualityGate::ImageQualityGate(const ImageQualityOptions& options) : options_(options) {}
 
-std::optional<std::string> ImageQualityGate::Judge(int64_t t_ns, const ImageQuality& quality) {
+std::optional<std::string> ImageQualityGate::Judge(int64_t t_ns, const ImageQuality& quality,
+                                                   std::optional<double> image_speed_px) {
   if (!options_.enabled) return std::nullopt;
+  const double speed = image_speed_px.value_or(0.0);
+  const bool moving = speed >= options_.motion_blur_speed_px;
   auto keep_as_good = [&] {
     degraded_since_ns_.reset();
-    good_.push_back({t_ns, quality});
+    good_.push_back({t_ns, quality, speed});
     // Pruned only when a good frame comes, and never below the frames needed, so that a
     // long fault keeps the baseline from before it.
     while (int(good_.size()) > options_.min_baseline_frames &&
@@ -175,27 +190,41 @@ std::optional<std::string> ImageQualityGate::Judge(int64_t t_ns, const ImageQual
   };
   if (int(good_.size()) < options_.min_baseline_frames) return keep_as_good();
 
-  std::vector<double> noise, blur, contrast;
+  // Blur and the noise measured (which the scene's smoothed texture lowers) are compared
+  // with good frames whose image moved about as fast; contrast with all of them.
+  std::vector<double> noise, blur, contrast, peer_noise, peer_blur;
   for (const Sample& sample : good_) {
     noise.push_back(sample.quality.noise_grey);
     blur.push_back(sample.quality.blur);
     contrast.push_back(sample.quality.contrast_grey);
+    const bool peer = moving ? sample.speed_px >= 0.5 * speed && sample.speed_px <= 2.0 * speed
+                             : sample.speed_px < options_.motion_blur_speed_px;
+    if (peer) {
+      peer_noise.push_back(sample.quality.noise_grey);
+      peer_blur.push_back(sample.quality.blur);
+    }
   }
-  const double usual_noise = Median(noise), usual_blur = Median(blur);
+  // Too few such frames, and the frame moving: its blur may be the exposure's alone.
+  const bool peers_known = 2 * int(peer_blur.size()) >= options_.min_baseline_frames;
+  const bool lenient = moving && !peers_known;
+  const double usual_noise = Median(peers_known ? peer_noise : noise);
+  const double usual_blur = Median(peers_known ? peer_blur : blur);
   const double usual_contrast = Median(contrast);
   std::ostringstream why;
   why.precision(2);
   why << std::fixed;
   const double blur_increase = quality.blur - usual_blur;
   const double contrast_ratio = quality.contrast_grey / std::max(usual_contrast, 1.0);
-  const int fog_signs = (blur_increase > options_.fog_blur_increase) +
-                        (contrast_ratio < options_.fog_contrast_ratio) +
-                        (quality.noise_grey < options_.fog_noise_ratio * usual_noise);
-  if (fog_signs >= 2) {
+  const bool blurred_sign = blur_increase > options_.fog_blur_increase;
+  const bool faded_sign = contrast_ratio < options_.fog_contrast_ratio;
+  const bool smoothed_sign = quality.noise_grey < options_.fog_noise_ratio * usual_noise;
+  const bool fogged = lenient ? faded_sign && (blurred_sign || smoothed_sign)
+                              : blurred_sign + faded_sign + smoothed_sign >= 2;
+  if (fogged) {
     why << "fogged (blur " << quality.blur << ", usually " << usual_blur << "; contrast "
         << quality.contrast_grey << " grey levels, usually " << usual_contrast << "; noise "
         << quality.noise_grey << ", usually " << usual_noise << ")";
-  } else if (blur_increase > options_.max_blur_increase) {
+  } else if (!lenient && blur_increase > options_.max_blur_increase) {
     why << "blurred (" << quality.blur << ", usually " << usual_blur << ")";
   } else if (contrast_ratio < options_.min_contrast_ratio) {
     why << "low contrast (" << quality.contrast_grey << " grey levels, usually "

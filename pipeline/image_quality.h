@@ -1,15 +1,19 @@
 // Whether a frame is fit to measure from: fog (blur, lost contrast) and noise bursts make
 // tracks wander and planes blur, and a calibration solved on them drifts off the trend.
 // Each frame is measured on the raw image and compared with what this camera showed on
-// its recent good frames, so that a scene's own texture does not count as a fault.
+// its recent good frames, so that a scene's own texture does not count as a fault. The
+// blur a moving exposure makes is no fault either: a worn camera turns in every window.
 #pragma once
 
 #include <cstdint>
 #include <deque>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
+
+#include "pipeline/flow.h"
 
 namespace autocal {
 
@@ -27,6 +31,10 @@ struct ImageQuality {
 // Measures an 8-bit BGR or grey image.
 ImageQuality MeasureImageQuality(const cv::Mat& image);
 
+// How far the image moved into the tracks' latest frame: the median length of their flow
+// vectors, pixels; nothing when no track has one.
+std::optional<double> ImageSpeedPx(const std::vector<Track>& tracks);
+
 struct ImageQualityOptions {
   bool enabled = true;
   double baseline_s = 3.0;          // Good frames this far back make the usual quality.
@@ -42,6 +50,11 @@ struct ImageQualityOptions {
   double min_contrast_ratio = 0.5;       // Contrast below this fraction alone: glare, fog.
   double max_noise_ratio = 2.0;          // Noise above this many times the usual...
   double min_noise_increase_grey = 3.0;  // ...and by at least this many grey levels.
+  // Image moving at least this fast (pixels a frame, the tracks' median flow) is blurred
+  // by the exposure: its blur and noise are compared with good frames moving half to twice
+  // as fast, or, with too few of those, it is fogged only if its contrast falls too, and
+  // never blurred alone. Slower frames are compared with the slower good ones.
+  double motion_blur_speed_px = 2.0;
   // A degradation that lasts longer becomes the usual (a darker place, a dirty window):
   // calibrating on it is then better than never calibrating again.
   double accept_as_usual_s = 10.0;
@@ -54,8 +67,11 @@ class ImageQualityGate {
  public:
   explicit ImageQualityGate(const ImageQualityOptions& options = {});
 
-  // Frames in time order. Returns why the frame is degraded, or nothing when it is fit.
-  std::optional<std::string> Judge(int64_t t_ns, const ImageQuality& quality);
+  // Frames in time order, with how far the image moved since the previous frame (pixels;
+  // nothing when unknown, judged as at rest). Returns why the frame is degraded, or nothing
+  // when it is fit.
+  std::optional<std::string> Judge(int64_t t_ns, const ImageQuality& quality,
+                                   std::optional<double> image_speed_px = std::nullopt);
 
   void set_options(const ImageQualityOptions& options) { options_ = options; }
 
@@ -63,6 +79,7 @@ class ImageQualityGate {
   struct Sample {
     int64_t t_ns;
     ImageQuality quality;
+    double speed_px;  // The image's speed, 0 when unknown.
   };
 
   ImageQualityOptions options_;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -12,6 +13,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "devices/sim/simulator.h"
+#include "pipeline/flow.h"
 #include "tests/test_util.h"
 
 namespace autocal {
@@ -123,36 +125,85 @@ bool Disturbed(const Scenario& scenario, int64_t t_ns) {
   return false;
 }
 
-// The simulator's transient walk: fog over 8-11 s, a noise burst over 11-12 s. Every
-// frame in them is found degraded, and no frame outside them. At 640x480 the fog's blur
-// moves the blur measure less than at 320x240 (0.05 against 0.09 on its first frame).
-void ExpectFindsTheBurst(const std::string& lens, const std::string& resolution) {
-  const Scenario scenario =
-      ParseScenarioSpec("transient,seconds=14,lens=" + lens + ",resolution=" + resolution);
-  const std::unique_ptr<Sequence> sequence = MakeSimulatedSequence(scenario);
-  ImageQualityGate gate;
+// How a gate judged a walk with the simulator's disturbances.
+struct GateCounts {
   int in_burst = 0, caught = 0, outside = 0, false_alarms = 0;
+  int in_burst_slow = 0, caught_slow = 0;  // Where the image moved under 2 px a frame.
+};
+
+// Judges every frame of a walk twice: as at rest (no image speed given) and as the pipeline
+// does, with the image's speed from tracks followed over the frames.
+std::pair<GateCounts, GateCounts> JudgeWalk(const Scenario& scenario) {
+  const std::unique_ptr<Sequence> sequence = MakeSimulatedSequence(scenario);
+  ImageQualityGate at_rest, moving;
+  GateCounts rest_counts, moving_counts;
+  FlowTracker tracker;
+  cv::Mat grey;
   for (size_t i = 0; i < sequence->frame_count(); ++i) {
     const int64_t t_ns = sequence->frame_time_ns(i);
     const bool disturbed = Disturbed(scenario, t_ns);
-    const ImageQuality quality = MeasureImageQuality(sequence->LoadFrame(i));
-    const std::optional<std::string> degraded = gate.Judge(t_ns, quality);
-    if (i % 15 == 0 || bool(degraded) != disturbed) {
-      std::printf("%5.2f s noise %5.2f blur %.3f contrast %5.1f %s%s\n", scenario.SecondsAt(t_ns),
-                  quality.noise_grey, quality.blur, quality.contrast_grey,
-                  disturbed ? "[burst] " : "", degraded ? degraded->c_str() : "");
+    const cv::Mat frame = sequence->LoadFrame(i);
+    cv::cvtColor(frame, grey, cv::COLOR_BGR2GRAY);
+    tracker.Update(t_ns, grey);
+    const std::optional<double> speed = ImageSpeedPx(tracker.tracks());
+    const ImageQuality quality = MeasureImageQuality(frame);
+    for (auto [gate, counts] : {std::pair{&at_rest, &rest_counts}, {&moving, &moving_counts}}) {
+      const std::optional<std::string> degraded =
+          gate == &at_rest ? gate->Judge(t_ns, quality) : gate->Judge(t_ns, quality, speed);
+      if (i % 15 == 0 || bool(degraded) != disturbed) {
+        std::printf("%s %5.2f s speed %5.2f px noise %5.2f blur %.3f contrast %5.1f %s%s\n",
+                    gate == &at_rest ? "at rest" : "moving ", scenario.SecondsAt(t_ns),
+                    speed.value_or(-1.0), quality.noise_grey, quality.blur, quality.contrast_grey,
+                    disturbed ? "[burst] " : "", degraded ? degraded->c_str() : "");
+      }
+      (disturbed ? counts->in_burst : counts->outside) += 1;
+      if (disturbed && degraded) ++counts->caught;
+      if (disturbed && speed.value_or(0.0) < 2.0) {
+        ++counts->in_burst_slow;
+        counts->caught_slow += bool(degraded);
+      }
+      if (!disturbed && degraded) ++counts->false_alarms;
     }
-    (disturbed ? in_burst : outside) += 1;
-    if (disturbed && degraded) ++caught;
-    if (!disturbed && degraded) ++false_alarms;
   }
-  ASSERT_GT(in_burst, 0);
-  EXPECT_EQ(caught, in_burst) << "every degraded frame caught";
-  EXPECT_EQ(false_alarms, 0) << "of " << outside << " frames outside the burst";
+  return {rest_counts, moving_counts};
+}
+
+// The simulator's transient walk: fog over 8-11 s, a noise burst over 11-12 s. Every
+// frame in them is found degraded, and no frame outside them, whether the gate is told
+// how fast the image moves or not. At 640x480 the fog's blur moves the blur measure less
+// than at 320x240 (0.05 against 0.09 on its first frame).
+void ExpectFindsTheBurst(const std::string& lens, const std::string& resolution) {
+  const auto [at_rest, moving] = JudgeWalk(
+      ParseScenarioSpec("transient,seconds=14,lens=" + lens + ",resolution=" + resolution));
+  for (const GateCounts& counts : {at_rest, moving}) {
+    ASSERT_GT(counts.in_burst, 0);
+    EXPECT_EQ(counts.caught, counts.in_burst) << "every degraded frame caught";
+    EXPECT_EQ(counts.false_alarms, 0) << "of " << counts.outside << " frames outside the burst";
+  }
 }
 
 TEST(ImageQuality, GateFindsFogAndNoiseOnTessar640x480) { ExpectFindsTheBurst("tessar", "640x480"); }
 TEST(ImageQuality, GateFindsFogAndNoiseOnSonnar320x240) { ExpectFindsTheBurst("sonnar", "320x240"); }
+
+// A 20 ms exposure smears the office walk's turns by up to 9 px at 320x240: blurrier and
+// less noisy, as fog is, but no fault of the camera. Told how fast the image moves, the
+// gate takes it for what it is (no frame of the walk called degraded), and still finds fog
+// coming as the next turn starts and a noise burst after it; as at rest it would call the
+// turns fogged or blurred. Fog in the turn itself (3.8-7.7 px a frame) shows only as lost
+// contrast, which alone is no fog: those frames pass.
+TEST(ImageQuality, MotionBlurIsNotFog) {
+  Scenario scenario = ParseScenarioSpec("transient,seconds=9,resolution=320x240,exposure_ms=20");
+  ASSERT_EQ(scenario.disturbances.size(), 2u);
+  scenario.disturbances[0].start.value = 6.5;
+  scenario.disturbances[0].end.value = 8.0;
+  scenario.disturbances[1].start.value = 8.0;
+  scenario.disturbances[1].end.value = 8.5;
+  const auto [at_rest, moving] = JudgeWalk(scenario);
+  EXPECT_EQ(moving.false_alarms, 0) << "of " << moving.outside << " frames outside the burst";
+  ASSERT_GT(moving.in_burst_slow, 8);
+  EXPECT_EQ(moving.caught_slow, moving.in_burst_slow) << "fog and noise where the image is slow";
+  EXPECT_GT(at_rest.false_alarms, 10) << "of " << at_rest.outside;
+}
 
 // The gate over a walk after H.264 (libx264's defaults, as a camera's recording would be):
 // frames marked degraded, and those marked among the disturbed ones.
