@@ -12,6 +12,10 @@
 namespace autocal {
 namespace {
 
+// Good frames whose image moved within this factor of a moving frame's speed show the blur
+// its exposure makes.
+constexpr double kPeerSpeedRatio = 2.0;
+
 double Median(std::vector<double> values) {
   std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
   return values[values.size() / 2];
@@ -197,7 +201,8 @@ std::optional<std::string> ImageQualityGate::Judge(int64_t t_ns, const ImageQual
     noise.push_back(sample.quality.noise_grey);
     blur.push_back(sample.quality.blur);
     contrast.push_back(sample.quality.contrast_grey);
-    const bool peer = moving ? sample.speed_px >= 0.5 * speed && sample.speed_px <= 2.0 * speed
+    const bool peer = moving ? sample.speed_px >= speed / kPeerSpeedRatio &&
+                                   sample.speed_px <= speed * kPeerSpeedRatio
                              : sample.speed_px < options_.motion_blur_speed_px;
     if (peer) {
       peer_noise.push_back(sample.quality.noise_grey);
@@ -223,9 +228,13 @@ std::optional<std::string> ImageQualityGate::Judge(int64_t t_ns, const ImageQual
   if (fogged) {
     why << "fogged (blur " << quality.blur << ", usually " << usual_blur << "; contrast "
         << quality.contrast_grey << " grey levels, usually " << usual_contrast << "; noise "
-        << quality.noise_grey << ", usually " << usual_noise << ")";
+        << quality.noise_grey << ", usually " << usual_noise;
+    if (moving) why << "; the image moving " << speed << " px a frame";
+    why << ")";
   } else if (!lenient && blur_increase > options_.max_blur_increase) {
-    why << "blurred (" << quality.blur << ", usually " << usual_blur << ")";
+    why << "blurred (" << quality.blur << ", usually " << usual_blur;
+    if (moving) why << ", the image moving " << speed << " px a frame";
+    why << ")";
   } else if (contrast_ratio < options_.min_contrast_ratio) {
     why << "low contrast (" << quality.contrast_grey << " grey levels, usually "
         << usual_contrast << ")";

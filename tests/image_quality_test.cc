@@ -255,6 +255,36 @@ TEST(ImageQuality, GateFindsFogAndNoiseThroughVideoCompression) {
   EXPECT_EQ(marked.degraded, marked.disturbed);
 }
 
+// Worked by hand: a frame is judged against the good frames that moved about as fast as it.
+TEST(ImageQuality, MovingFramesAreJudgedAgainstFramesMovingAsFast) {
+  ImageQualityGate gate;
+  const ImageQuality still{2.0, 0.20, 120.0}, smeared{1.4, 0.35, 118.0};
+  int64_t t = 0;
+  const int64_t frame = 33'333'333;
+  for (int i = 0; i < 20; ++i, t += frame) EXPECT_FALSE(gate.Judge(t, still, 0.5));
+  // No frame has moved as fast yet: smeared is not blurred alone (0.15 over the usual).
+  EXPECT_FALSE(gate.Judge(t, smeared, 8.0));
+  for (int i = 0; i < 10; ++i) EXPECT_FALSE(gate.Judge(t += frame, smeared, 8.0 + 0.1 * i));
+  // Now there are: 0.15 over them is blurred, and says how fast the image moved.
+  const std::optional<std::string> blurrier = gate.Judge(t += frame, {1.4, 0.50, 118.0}, 6.0);
+  ASSERT_TRUE(blurrier);
+  EXPECT_EQ(*blurrier,
+            "image degraded: blurred (0.50, usually 0.35, the image moving 6.00 px a frame)");
+  // Fog while moving: faded and blurred beyond the frames moving as fast.
+  const std::optional<std::string> fogged = gate.Judge(t += frame, {1.3, 0.42, 70.0}, 8.0);
+  ASSERT_TRUE(fogged);
+  EXPECT_EQ(fogged->rfind("image degraded: fogged", 0), 0u) << *fogged;
+  // A still frame as smeared is compared with the still ones: blurrier and smoother.
+  const std::optional<std::string> defocused = gate.Judge(t += frame, smeared, 0.5);
+  ASSERT_TRUE(defocused);
+  EXPECT_EQ(*defocused,
+            "image degraded: fogged (blur 0.35, usually 0.20; contrast 118.00 grey "
+            "levels, usually 120.00; noise 1.40, usually 2.00)");
+  // And with no speed given, the smeared frame is judged as at rest.
+  EXPECT_TRUE(gate.Judge(t += frame, smeared));
+  EXPECT_FALSE(gate.Judge(t += frame, smeared, 8.0));
+}
+
 TEST(ImageQuality, ALastingChangeBecomesTheUsual) {
   ImageQualityOptions options;
   options.accept_as_usual_s = 1.0;
