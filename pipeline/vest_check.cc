@@ -43,6 +43,8 @@ std::optional<VestNeed> NeedFromReason(const std::string& reason) {
 // ("image degraded: fogged (...)", "... noisy (...)").
 std::string UnfitGuidance(const std::string& degraded) {
   const auto has = [&](const char* text) { return degraded.find(text) != std::string::npos; };
+  // Blurrier than frames that moved about as fast: the exposure smears a fast turn.
+  if (has("blurred") && has("the image moving")) return "Image blurred by motion: turn more slowly";
   if (has("fogged") || has("blurred") || has("low contrast")) {
     return "Image fogged or blurred: wipe the lens";
   }

@@ -118,6 +118,10 @@ TEST(VestCheck, UnfitImagesAreNotMaterialAndAskToWipeTheLens) {
   EXPECT_NEAR(check.elapsed_s(), 59 / 30.0, 1e-9);  // Walk time all the same.
   check.Add(Turning(frame++ / 30.0, 40.0, "image degraded: noisy (21.30 grey levels, usually 1.70)"));
   EXPECT_EQ(check.Guidance(), "Image noisy: move to where there is more light");
+  check.Add(Turning(frame++ / 30.0, 40.0,
+                    "image degraded: blurred (0.50, usually 0.35, the image moving 6.00 px a "
+                    "frame)"));
+  EXPECT_EQ(check.Guidance(), "Image blurred by motion: turn more slowly");
 
   // Clear again: the same motion counts.
   for (const int end = frame + 75; frame < end; ++frame) check.Add(Turning(frame / 30.0, 40.0, ""));
@@ -125,7 +129,7 @@ TEST(VestCheck, UnfitImagesAreNotMaterialAndAskToWipeTheLens) {
   EXPECT_TRUE(check.Coverage()[int(VestNeed::kPlanes)].done);
   EXPECT_EQ(check.Guidance().find("Image"), std::string::npos) << check.Guidance();
   const VestCheckResult result = check.Result();
-  EXPECT_NEAR(result.unfit_s, 60 / 30.0, 1e-9);
+  EXPECT_NEAR(result.unfit_s, 61 / 30.0, 1e-9);
   EXPECT_EQ(result.verdict, VestVerdict::kInconclusive);  // No update yet.
   EXPECT_EQ(result.reasons.back(),
             "the images were unfit for 2.0 s of the walk, which did not count (image fogged or "
