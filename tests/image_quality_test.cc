@@ -128,7 +128,8 @@ bool Disturbed(const Scenario& scenario, int64_t t_ns) {
 // How a gate judged a walk with the simulator's disturbances.
 struct GateCounts {
   int in_burst = 0, caught = 0, outside = 0, false_alarms = 0;
-  int in_burst_slow = 0, caught_slow = 0;  // Where the image moved under 2 px a frame.
+  // Where the image moved slower than the gate takes for moving (motion_blur_speed_px).
+  int in_burst_slow = 0, caught_slow = 0;
 };
 
 // Judges every frame of a walk twice: as at rest (no image speed given) and as the pipeline
@@ -158,7 +159,7 @@ std::pair<GateCounts, GateCounts> JudgeWalk(const Scenario& scenario) {
       }
       (disturbed ? counts->in_burst : counts->outside) += 1;
       if (disturbed && degraded) ++counts->caught;
-      if (disturbed && speed.value_or(0.0) < 2.0) {
+      if (disturbed && speed.value_or(0.0) < ImageQualityOptions{}.motion_blur_speed_px) {
         ++counts->in_burst_slow;
         counts->caught_slow += bool(degraded);
       }
