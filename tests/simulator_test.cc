@@ -187,18 +187,21 @@ TEST(RollingShutterTest, EachRowSeesTheSceneFromItsOwnPose) {
   EXPECT_GT(max_shift, 3.0);  // Else the test could not tell the shutters apart.
 }
 
-// Ray-rectangle intersection written independently of the renderer.
+// Ray-rectangle intersection written independently of the renderer, with the moving
+// planes where they are at `time_s`.
 int PlaneSeenBy(const Scene& scene, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir,
-                double* margin_m) {
+                double* margin_m, double time_s = 0.0) {
   int best_id = 0;
   double best_t = std::numeric_limits<double>::infinity();
   for (const Plane& p : scene.planes) {
+    if (time_s < p.from_s || time_s >= p.until_s) continue;
+    const Eigen::Vector3d plane_origin = p.origin + time_s * p.velocity_mps;
     const Eigen::Vector3d n = p.axis_u.cross(p.axis_v);
     const double den = n.dot(dir);
     if (std::abs(den) < 1e-12) continue;
-    const double t = n.dot(p.origin - origin) / den;
+    const double t = n.dot(plane_origin - origin) / den;
     if (t <= 0.0 || t >= best_t) continue;
-    const Eigen::Vector3d local = origin + t * dir - p.origin;
+    const Eigen::Vector3d local = origin + t * dir - plane_origin;
     const double a = local.dot(p.axis_u), b = local.dot(p.axis_v);
     if (a < 0 || a > p.width_m || b < 0 || b > p.height_m) continue;
     best_t = t;
@@ -245,6 +248,60 @@ TEST_F(SimulatorTest, PlaneLabelsAgreeWithGeometry) {
   }
   EXPECT_GT(checked, 200);
   EXPECT_GE(seen.size(), 3u);  // Wall, floor and desk at least.
+}
+
+// People walk across the view: each pixel's label is the plane its ray meets with every
+// person where they are at that row's time (a rolling shutter reads rows at their own),
+// and the people move (where they stood at the start, most of their pixels see the room).
+TEST(PeopleTest, LabelsFollowThePeopleAsTheyWalk) {
+  for (const double readout_ms : {0.0, 30.0}) {
+    SCOPED_TRACE(readout_ms);
+    Scenario s = Small("office");
+    s.seconds = 6.0;
+    s.people = 3;
+    s.image.readout_ms = readout_ms;
+    const auto sequence = MakeSimulatedSequence(s);
+    const std::shared_ptr<const Scene> scene = BuildScene(s);
+    const Trajectory trajectory(s.motion, s.scene);
+    std::set<int> people;
+    for (const Plane& p : scene->planes) {
+      if (p.name.rfind("person", 0) == 0) {
+        people.insert(p.id);
+        EXPECT_TRUE(p.moves());
+        EXPECT_NEAR(p.velocity_mps.norm(), 1.3, 1e-9);
+      }
+    }
+    ASSERT_EQ(people.size(), 15u);  // Four sides and a top each.
+    int person_pixels = 0, still_agree = 0;
+    for (size_t i = 0; i < sequence->frame_count(); i += 3) {
+      const cv::Mat labels = *sequence->LoadPlaneLabels(i);
+      const GroundTruthFrame& truth = sequence->ground_truth()->at(i);
+      const double t = s.SecondsAt(truth.t_ns);
+      for (int v = 3; v < s.height; v += 9) {
+        const double row_t = t + (v - 0.5 * (s.height - 1)) * 1e-3 * readout_ms / s.height;
+        const Eigen::Matrix3d r = trajectory.WorldFromCamAt(row_t);
+        const Eigen::Vector3d position = trajectory.PositionAt(row_t);
+        for (int u = 2; u < s.width; u += 7) {
+          const auto ray = Unproject(truth.intrinsics, Eigen::Vector2d(u, v));
+          ASSERT_TRUE(ray.has_value());
+          const Eigen::Vector3d dir = r * Eigen::Vector3d(ray->x(), ray->y(), 1.0);
+          double margin = 0.0;
+          const int id = PlaneSeenBy(*scene, position, dir, &margin, row_t);
+          if (id != 0 && margin < 0.01) continue;
+          const int label = labels.at<uint16_t>(v, u);
+          EXPECT_EQ(label, id) << "frame " << i << ", pixel " << u << ", " << v;
+          if (!people.count(id)) continue;
+          ++person_pixels;
+          // Where the person was at the start of their walk.
+          still_agree +=
+              PlaneSeenBy(*scene, position, dir, &margin, scene->planes[id - 1].from_s) == id;
+        }
+      }
+    }
+    std::printf("%d person pixels, %d seen there at the start\n", person_pixels, still_agree);
+    EXPECT_GT(person_pixels, 300);
+    EXPECT_LT(still_agree, person_pixels / 3);
+  }
 }
 
 // Trackers need corners all over the image, not only on posters: the textures must
@@ -671,6 +728,10 @@ TEST(ScenarioTest, OverridesAndSpecs) {
   ApplyScenarioOverride(&s, "exposure_ms", "20");
   EXPECT_EQ(s.image.exposure_ms, 20.0);
   EXPECT_THROW(ApplyScenarioOverride(&s, "exposure_ms", "70"), Error);
+  ApplyScenarioOverride(&s, "people", "4");
+  EXPECT_EQ(s.people, 4);
+  EXPECT_THROW(ApplyScenarioOverride(&s, "people", "101"), Error);
+  EXPECT_THROW(ApplyScenarioOverride(&s, "motion", "static"), Error);  // People need a walk.
   EXPECT_EQ(s.accelerometer.rate_hz, 800.0);  // Failed overrides change nothing.
   EXPECT_THROW(ParseScenarioSpec("office,lens"), Error);
   EXPECT_THROW(ParseScenarioSpec("nowhere"), Error);

@@ -11,6 +11,7 @@ namespace autocal {
 inline constexpr uint64_t kAccelerometerStream = 0xacce1;
 inline constexpr uint64_t kTextureStream = 0x7e47;
 inline constexpr uint64_t kFrameNoiseStream = 0xf7a3e;
+inline constexpr uint64_t kPeopleStream = 0x9e091e;
 
 // SplitMix64 finaliser over the combined inputs: well spread, never 0 (cv::RNG treats a
 // zero state specially).

@@ -159,13 +159,16 @@ struct Hit {
   int plane = -1;  // Into the CamPlane vector.
 };
 
-std::vector<CamPlane> CameraPlanes(const Scene& scene, const Eigen::Isometry3d& world_from_cam) {
+// The scene's planes at `time_s` seen from `world_from_cam`.
+std::vector<CamPlane> CameraPlanes(const Scene& scene, const Eigen::Isometry3d& world_from_cam,
+                                   double time_s) {
   const Eigen::Matrix3d cam_from_world = world_from_cam.rotation().transpose();
   const Eigen::Vector3d t = world_from_cam.translation();
   std::vector<CamPlane> planes;
   for (size_t i = 0; i < scene.planes.size(); ++i) {
     const Plane& plane = scene.planes[i];
-    const Eigen::Vector3d o = cam_from_world * (plane.origin - t);
+    if (!plane.PresentAt(time_s)) continue;
+    const Eigen::Vector3d o = cam_from_world * (plane.OriginAt(time_s) - t);
     const Eigen::Vector3d u = cam_from_world * plane.axis_u;
     const Eigen::Vector3d v = cam_from_world * plane.axis_v;
     const Eigen::Vector3d n = v.cross(u);
@@ -220,9 +223,10 @@ std::vector<CamPlane> CameraPlanes(const Scene& scene, const Eigen::Isometry3d& 
 class RowPlanes {
  public:
   RowPlanes(const Scene& scene, const Eigen::Isometry3d& world_from_cam,
-            const std::vector<Eigen::Isometry3d>& world_from_cam_by_row, int height) {
+            const std::vector<Eigen::Isometry3d>& world_from_cam_by_row, int height,
+            const ShotTime& time) {
     if (world_from_cam_by_row.empty()) {
-      all_rows_ = CameraPlanes(scene, world_from_cam);
+      all_rows_ = CameraPlanes(scene, world_from_cam, time.middle_s);
       most_ = all_rows_.size();
       return;
     }
@@ -233,7 +237,8 @@ class RowPlanes {
     by_row_.resize(height);
     cv::parallel_for_(cv::Range(0, height), [&](const cv::Range& rows) {
       for (int v = rows.start; v < rows.end; ++v) {
-        by_row_[v] = CameraPlanes(scene, world_from_cam_by_row[v]);
+        const double row_s = time.middle_s + (v - 0.5 * (height - 1)) * time.row_period_s;
+        by_row_[v] = CameraPlanes(scene, world_from_cam_by_row[v], row_s);
       }
     });
     for (const auto& planes : by_row_) most_ = std::max(most_, planes.size());
@@ -421,9 +426,10 @@ std::shared_ptr<const RayTable> Renderer::Rays(const CameraIntrinsics& intrinsic
 
 cv::Mat Renderer::RenderLabels(const CameraIntrinsics& intrinsics,
                                const Eigen::Isometry3d& world_from_cam,
-                               const std::vector<Eigen::Isometry3d>& world_from_cam_by_row) const {
+                               const std::vector<Eigen::Isometry3d>& world_from_cam_by_row,
+                               const ShotTime& time) const {
   const auto rays = Rays(intrinsics);
-  const RowPlanes row_planes(*scene_, world_from_cam, world_from_cam_by_row, rays->height);
+  const RowPlanes row_planes(*scene_, world_from_cam, world_from_cam_by_row, rays->height, time);
   cv::Mat labels(rays->height, rays->width, CV_16U);
   cv::parallel_for_(cv::Range(0, rays->height), [&](const cv::Range& rows) {
     std::vector<int> candidates(row_planes.most() + 1);
@@ -549,17 +555,17 @@ RenderedFrame Renderer::Render(const CameraIntrinsics& intrinsics,
   const RayTable& table = *rays;
   const int width = table.width, height = table.height;
   RenderedFrame frame;
-  cv::Mat colour =
-      Radiance(*scene_, table, intrinsics,
-               RowPlanes(*scene_, world_from_cam, options.world_from_cam_by_row, height),
-               options.supersampling, &frame.labels);
+  cv::Mat colour = Radiance(
+      *scene_, table, intrinsics,
+      RowPlanes(*scene_, world_from_cam, options.world_from_cam_by_row, height, options.time),
+      options.supersampling, &frame.labels);
   if (!options.blur_instants.empty()) {
     cv::Mat instant_labels;
     for (const ExposureInstant& instant : options.blur_instants) {
-      colour += Radiance(
-          *scene_, table, intrinsics,
-          RowPlanes(*scene_, instant.world_from_cam, instant.world_from_cam_by_row, height),
-          options.supersampling, &instant_labels);
+      colour += Radiance(*scene_, table, intrinsics,
+                         RowPlanes(*scene_, instant.world_from_cam, instant.world_from_cam_by_row,
+                                   height, {instant.time_s, options.time.row_period_s}),
+                         options.supersampling, &instant_labels);
     }
     colour *= 1.0 / (1.0 + static_cast<double>(options.blur_instants.size()));
   }

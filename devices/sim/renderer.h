@@ -20,10 +20,19 @@
 
 namespace autocal {
 
-// One instant of an exposure: the camera's pose and, for a rolling shutter, each row's.
+// When an image is taken, which places the scene's moving planes: seconds after the first
+// frame at its middle row, and from one row to the next (a rolling shutter; 0: a global one).
+struct ShotTime {
+  double middle_s = 0.0;
+  double row_period_s = 0.0;
+};
+
+// One instant of an exposure: the camera's pose and, for a rolling shutter, each row's, at
+// `time_s` (the middle row's).
 struct ExposureInstant {
   Eigen::Isometry3d world_from_cam = Eigen::Isometry3d::Identity();
   std::vector<Eigen::Isometry3d> world_from_cam_by_row;
+  double time_s = 0.0;
 };
 
 struct RenderOptions {
@@ -31,6 +40,7 @@ struct RenderOptions {
   // Rolling shutter: the camera's pose for each row (as many as the image has rows);
   // empty: the pose passed to Render for every row (a global shutter).
   std::vector<Eigen::Isometry3d> world_from_cam_by_row;
+  ShotTime time;  // Of the pose passed to Render (and its rows).
   // Motion blur: the exposure's other instants, whose light is averaged with that at the
   // pose passed to Render (which alone gives the labels). Empty: an instantaneous exposure.
   std::vector<ExposureInstant> blur_instants;
@@ -54,10 +64,11 @@ class Renderer {
   // Thread-safe; the result depends only on the arguments.
   RenderedFrame Render(const CameraIntrinsics& intrinsics, const Eigen::Isometry3d& world_from_cam,
                        const RenderOptions& options) const;
-  // The label image alone (no shading, no effects): cheaper. `world_from_cam_by_row` as in
-  // RenderOptions.
+  // The label image alone (no shading, no effects): cheaper. `world_from_cam_by_row` and
+  // `time` as in RenderOptions.
   cv::Mat RenderLabels(const CameraIntrinsics& intrinsics, const Eigen::Isometry3d& world_from_cam,
-                       const std::vector<Eigen::Isometry3d>& world_from_cam_by_row = {}) const;
+                       const std::vector<Eigen::Isometry3d>& world_from_cam_by_row = {},
+                       const ShotTime& time = {}) const;
 
  private:
   // The ray table of `intrinsics`, from the cache or built (rays depend only on the

@@ -102,6 +102,10 @@ bool Scenario::Check(std::string* error) const {
              checkerboard.squares_x > 40 || checkerboard.squares_y > 40 ||
              !in(checkerboard.square_m, 0.005, 1.0)) {
     why << "checkerboard: squares must be in [3, 40] per side and square_m in [0.005, 1] m";
+  } else if (people < 0 || people > kMostPeople) {
+    why << "people: must be in [0, " << kMostPeople << "], got " << people;
+  } else if (people > 0 && m.type != "walk") {
+    why << "people: they cross the walking camera's view; motion.type must be walk";
   }
   for (size_t i = 0; why.str().empty() && i < intrinsics_events.size(); ++i) {
     const IntrinsicsEvent& e = intrinsics_events[i];

@@ -87,6 +87,8 @@ struct CheckerboardOptions {
   double square_m = 0.04;  // Side of a square, metres.
 };
 
+inline constexpr int kMostPeople = 100;
+
 struct Scenario {
   std::string name;              // "office", ...; file name for scenario files.
   std::string description;       // One line for humans.
@@ -104,6 +106,9 @@ struct Scenario {
   CheckerboardOptions checkerboard;
   std::vector<IntrinsicsEvent> intrinsics_events;
   std::vector<Disturbance> disturbances;
+  // People walking across the camera's view, one after another over the duration (the
+  // scene's only moving surfaces): a team around a vest, passers-by in front of a vehicle.
+  int people = 0;
 
   // Values that make sense; names the wrong field.
   bool Check(std::string* error) const;

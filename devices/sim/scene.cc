@@ -6,6 +6,7 @@
 
 #include "devices/sim/procedural.h"
 #include "devices/sim/random.h"
+#include "devices/sim/trajectory.h"
 #include "pipeline/error.h"
 
 namespace autocal {
@@ -16,6 +17,8 @@ const Eigen::Vector3d kUp = Eigen::Vector3d::UnitZ();
 class SceneBuilder {
  public:
   SceneBuilder(const std::string& name, uint32_t seed) : seed_(seed) { scene_.name = name; }
+  // Goes on adding planes to `scene`.
+  SceneBuilder(Scene scene, uint32_t seed) : scene_(std::move(scene)), seed_(seed) {}
 
   // A generator for the texture of the next plane: each plane draws from its own stream.
   cv::RNG NextRng() const {
@@ -518,11 +521,84 @@ Scene BuildCheckerboard(const CheckerboardOptions& options, uint32_t seed) {
   return std::move(builder.scene());
 }
 
-}  // namespace
+// A side of a person seen from `width_m` across: hair or face, a shirt (plain, striped or
+// with a print), trousers; textured enough to be tracked, as most clothes are.
+Canvas PersonSide(double width_m, double height_m, const cv::Scalar& shirt,
+                  const cv::Scalar& trousers, bool stripes, cv::RNG& rng) {
+  constexpr double kHeadM = 0.25, kWaistM = 0.95;
+  Canvas c(width_m, height_m, 0.004, trousers);
+  c.Fill(0.0, 0.0, width_m, kHeadM, Jitter(cv::Scalar(90, 120, 170), 40, rng));
+  c.Fill(0.0, kHeadM, width_m, kWaistM - kHeadM, shirt);
+  if (stripes) {
+    const cv::Scalar stripe = RandomColour(rng);
+    for (double b = kHeadM + 0.03; b < kWaistM; b += 0.07) c.Fill(0.0, b, width_m, 0.025, stripe);
+  } else {
+    c.Text(RandomWord(rng, 3), 0.05 * width_m, kHeadM + 0.2, 0.08, RandomColour(rng));
+  }
+  c.Mottle(0.05, 14.0, rng);
+  c.Flecks(0.006, 0.02, cv::Scalar(30, 30, 30), rng);
+  c.Grain(6.0, rng);
+  return c;
+}
 
-std::vector<std::string> SceneNames() { return {"office", "corridor", "outdoor", "checkerboard"}; }
+// People crossing the walking camera's view, evenly spread over the duration: each walks
+// at 1.3 m/s square to where the camera heads halfway through its crossing, 1.8-3 m ahead
+// of it, for 2.6 s (in view for about half of that), and is not in the scene before or
+// after. A person is a box 0.45 m square and 1.75 m tall; walls and furniture do not stop
+// them.
+Scene AddPeople(Scene scene, const Scenario& scenario) {
+  constexpr double kSpeedMps = 1.3, kCrossingS = 2.6, kSideM = 0.45, kHeightM = 1.75;
+  const Trajectory trajectory(scenario.motion, scenario.scene);
+  SceneBuilder builder(std::move(scene), scenario.seed);
+  for (int i = 0; i < scenario.people; ++i) {
+    cv::RNG rng(MixSeed(scenario.seed, kPeopleStream, static_cast<uint64_t>(i)));
+    const double middle_s = (i + 0.5) * scenario.seconds / scenario.people;
+    Eigen::Vector3d ahead = trajectory.WorldFromCamAt(middle_s).col(2);
+    ahead.z() = 0.0;
+    ahead.normalize();
+    const Eigen::Vector3d left = kUp.cross(ahead);
+    const Eigen::Vector3d heading = rng.uniform(0, 2) == 0 ? left : Eigen::Vector3d(-left);
+    const Eigen::Vector3d side = kUp.cross(heading);
+    Eigen::Vector3d middle = trajectory.PositionAt(middle_s) + rng.uniform(1.8, 3.0) * ahead;
+    middle.z() = 0.0;
+    const Eigen::Vector3d velocity = kSpeedMps * heading;
+    // Where the person's centre is at t = 0, on the line it walks.
+    const Eigen::Vector3d centre_at_zero = middle - middle_s * velocity;
+    const cv::Scalar shirt = RandomColour(rng),
+                     trousers = Jitter(RandomColour(rng, 30, 110), 10, rng);
+    const bool stripes = rng.uniform(0, 2) == 0;
+    const std::string name = "person" + std::to_string(i + 1);
+    const size_t first = builder.scene().planes.size();
+    const double half = 0.5 * kSideM;
+    for (const auto& [suffix, normal, shade] :
+         {std::tuple{"_front", heading, 0.9f},
+          std::tuple{"_back", Eigen::Vector3d(-heading), 0.75f}, std::tuple{"_left", side, 0.85f},
+          std::tuple{"_right", Eigen::Vector3d(-side), 0.8f}}) {
+      const Eigen::Vector3d u = (-normal).cross(kUp);
+      const Eigen::Vector3d top_left = centre_at_zero + half * normal - half * u + kHeightM * kUp;
+      cv::RNG side_rng = builder.NextRng();
+      builder.AddVertical(name + suffix, normal, top_left,
+                          PersonSide(kSideM, kHeightM, shirt, trousers, stripes, side_rng), shade);
+    }
+    {
+      cv::RNG top_rng = builder.NextRng();
+      Canvas hair(kSideM, kSideM, 0.004, Jitter(cv::Scalar(40, 50, 60), 20, top_rng));
+      hair.Mottle(0.04, 12.0, top_rng);
+      builder.Add(name + "_top", centre_at_zero - half * heading + half * side + kHeightM * kUp,
+                  heading, -side, hair, false, 1.0f);
+    }
+    for (size_t p = first; p < builder.scene().planes.size(); ++p) {
+      Plane& plane = builder.scene().planes[p];
+      plane.velocity_mps = velocity;
+      plane.from_s = middle_s - 0.5 * kCrossingS;
+      plane.until_s = middle_s + 0.5 * kCrossingS;
+    }
+  }
+  return std::move(builder.scene());
+}
 
-std::shared_ptr<const Scene> BuildScene(const Scenario& scenario) {
+// The scene without its people, cached.
+std::shared_ptr<const Scene> BuildStillScene(const Scenario& scenario) {
   std::ostringstream key;
   key << scenario.scene << "/" << scenario.seed;
   if (scenario.scene == "checkerboard") {
@@ -549,6 +625,17 @@ std::shared_ptr<const Scene> BuildScene(const Scenario& scenario) {
                 "', expected office, corridor, outdoor or checkerboard");
   }
   cache[key.str()] = scene;
+  return scene;
+}
+
+}  // namespace
+
+std::vector<std::string> SceneNames() { return {"office", "corridor", "outdoor", "checkerboard"}; }
+
+std::shared_ptr<const Scene> BuildScene(const Scenario& scenario) {
+  std::shared_ptr<const Scene> scene = BuildStillScene(scenario);
+  // The people's planes go on a copy, which shares the scene's texture pixels.
+  if (scenario.people > 0) return std::make_shared<const Scene>(AddPeople(*scene, scenario));
   return scene;
 }
 

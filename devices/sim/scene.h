@@ -2,6 +2,7 @@
 // (1..N; 0 means nothing, the sky). Built procedurally and deterministically from the seed.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -28,10 +29,19 @@ struct Plane {
   double height_m = 1.0;                              // Extent along axis_v.
   int texture = 0;                                    // Index into Scene::textures.
   float shade = 1.0f;                                 // Lighting: factor on the texture's colour.
+  // A moving plane (a side of a walking person): at t seconds after the first frame its
+  // origin is origin + velocity_mps * t, and it is in the scene only for from_s <= t < until_s.
+  Eigen::Vector3d velocity_mps = Eigen::Vector3d::Zero();
+  double from_s = -std::numeric_limits<double>::infinity();
+  double until_s = std::numeric_limits<double>::infinity();
 
   // Unit normal toward the side the plane is seen from.
   Eigen::Vector3d normal() const { return axis_v.cross(axis_u); }
+  // At t = 0 for a moving plane.
   Eigen::Vector3d Point(double a, double b) const { return origin + a * axis_u + b * axis_v; }
+  bool moves() const { return !velocity_mps.isZero(); }
+  bool PresentAt(double t_s) const { return t_s >= from_s && t_s < until_s; }
+  Eigen::Vector3d OriginAt(double t_s) const { return origin + velocity_mps * t_s; }
 };
 
 struct Scene {
@@ -44,8 +54,9 @@ struct Scene {
 // "office", "corridor", "outdoor", "checkerboard".
 std::vector<std::string> SceneNames();
 
-// The scenario's scene. Scenes are cached by their parameters, so sequences of the same
-// scene share textures. Throws Error for an unknown scene.
+// The scenario's scene, with its people (Scenario::people) after the scene's own planes.
+// Scenes are cached by their parameters, so sequences of the same scene share textures.
+// Throws Error for an unknown scene.
 std::shared_ptr<const Scene> BuildScene(const Scenario& scenario);
 
 // The checkerboard scene: the board lies in the plane x = kCheckerboardDistanceM facing the

@@ -81,6 +81,7 @@ class SimulatedSequence : public Sequence {
     options.effects = EffectsAt(scenario_, scenario_.SecondsAt(truth.t_ns));
     options.noise_seed = MixSeed(scenario_.seed, kFrameNoiseStream, index);
     options.world_from_cam_by_row = RowPoses(scenario_.SecondsAt(truth.t_ns));
+    options.time = ShotTimeOf(truth);
     options.blur_instants = BlurInstants(truth);
     cv::Mat image = renderer().Render(truth.intrinsics, Pose(truth), options).image;
     const std::lock_guard lock(recent_mutex_);
@@ -96,7 +97,7 @@ class SimulatedSequence : public Sequence {
   std::optional<cv::Mat> LoadPlaneLabels(size_t index) const override {
     const GroundTruthFrame& truth = Truth(index);
     return renderer().RenderLabels(truth.intrinsics, Pose(truth),
-                                   RowPoses(scenario_.SecondsAt(truth.t_ns)));
+                                   RowPoses(scenario_.SecondsAt(truth.t_ns)), ShotTimeOf(truth));
   }
 
   std::optional<std::string> SceneDescription() const override {
@@ -132,11 +133,18 @@ class SimulatedSequence : public Sequence {
   // handed out, as callers own what they get. More than the runtime's queues hold.
   static constexpr size_t kRecentFrames = 12;
 
+  // Seconds from one row's reading to the next's; 0 for a global shutter.
+  double RowPeriodS() const { return 1e-3 * scenario_.image.readout_ms / scenario_.height; }
+
+  ShotTime ShotTimeOf(const GroundTruthFrame& truth) const {
+    return {scenario_.SecondsAt(truth.t_ns), RowPeriodS()};
+  }
+
   // A rolling shutter's pose for each row, the middle row at time t; empty for a global
   // shutter.
   std::vector<Eigen::Isometry3d> RowPoses(double t) const {
     std::vector<Eigen::Isometry3d> poses;
-    const double line_s = 1e-3 * scenario_.image.readout_ms / scenario_.height;
+    const double line_s = RowPeriodS();
     if (line_s <= 0.0) return poses;
     poses.resize(scenario_.height, Eigen::Isometry3d::Identity());
     for (int v = 0; v < scenario_.height; ++v) {
@@ -171,6 +179,7 @@ class SimulatedSequence : public Sequence {
       instant.world_from_cam.linear() = trajectory_.WorldFromCamAt(instant_t);
       instant.world_from_cam.translation() = trajectory_.PositionAt(instant_t);
       instant.world_from_cam_by_row = RowPoses(instant_t);
+      instant.time_s = instant_t;
       instants.push_back(std::move(instant));
     }
     return instants;
@@ -209,7 +218,9 @@ std::string SceneDescriptionYaml(const Scenario& scenario) {
   out.writeComment(
       "Planes of the simulated scene, world frame (z up, metres). A plane is the rectangle "
       "origin + a axis_u + b axis_v, 0 <= a < width, 0 <= b < height, seen from the side its "
-      "normal points to; id is its value in the plane-label images (0: none).");
+      "normal points to; id is its value in the plane-label images (0: none). A moving plane "
+      "(a person) is at origin + velocity t at t seconds after the first frame, with its "
+      "corners as at t = 0, and is in the scene only for from <= t < until.");
   out << "scene" << scene->name;
   out << "seed" << static_cast<int>(scenario.seed);
   out << "planes"
@@ -226,6 +237,11 @@ std::string SceneDescriptionYaml(const Scenario& scenario) {
     out << "normal";
     WriteVector(out, p.normal());
     out << "width" << p.width_m << "height" << p.height_m;
+    if (p.moves()) {
+      out << "velocity";
+      WriteVector(out, p.velocity_mps);
+      out << "from" << p.from_s << "until" << p.until_s;
+    }
     out << "corners"
         << "[";
     for (const Eigen::Vector3d& corner : {p.Point(0, 0), p.Point(p.width_m, 0),
