@@ -521,8 +521,8 @@ Scene BuildCheckerboard(const CheckerboardOptions& options, uint32_t seed) {
   return std::move(builder.scene());
 }
 
-// A side of a person seen from `width_m` across: hair or face, a shirt (plain, striped or
-// with a print), trousers; textured enough to be tracked, as most clothes are.
+// A side of a person, `width_m` across: a head band, a shirt (striped, or with a print),
+// trousers; textured enough to be tracked, as most clothes are.
 Canvas PersonSide(double width_m, double height_m, const cv::Scalar& shirt,
                   const cv::Scalar& trousers, bool stripes, cv::RNG& rng) {
   constexpr double kHeadM = 0.25, kWaistM = 0.95;
@@ -542,10 +542,9 @@ Canvas PersonSide(double width_m, double height_m, const cv::Scalar& shirt,
 }
 
 // People crossing the walking camera's view, evenly spread over the duration: each walks
-// at 1.3 m/s square to where the camera heads halfway through its crossing, 1.8-3 m ahead
-// of it, for 2.6 s (in view for about half of that), and is not in the scene before or
-// after. A person is a box 0.45 m square and 1.75 m tall; walls and furniture do not stop
-// them.
+// at 1.3 m/s square to where the camera looks halfway through its crossing, 1.8-3 m ahead
+// of it, for 2.6 s, and is not in the scene before or after. A person is a box 0.45 m
+// square and 1.75 m tall; walls and furniture do not stop them.
 Scene AddPeople(Scene scene, const Scenario& scenario) {
   constexpr double kSpeedMps = 1.3, kCrossingS = 2.6, kSideM = 0.45, kHeightM = 1.75;
   const Trajectory trajectory(scenario.motion, scenario.scene);
