@@ -18,6 +18,7 @@
 #include "devices/sim/lens.h"
 #include "devices/sim/renderer.h"
 #include "devices/sim/scene.h"
+#include "devices/sim/texture.h"
 #include "devices/sim/trajectory.h"
 #include "pipeline/error.h"
 #include "tests/sim_test_util.h"
@@ -325,6 +326,57 @@ TEST_F(SimulatorTest, OfficeHasCornersEverywhere) {
       rich += static_cast<int>(std::count_if(row, row + 4, [](int n) { return n >= 5; }));
     EXPECT_GE(rich, 15) << "frame " << index;
   }
+}
+
+// Scenario::surface_texture takes the fine texture off painted walls and leaves what is
+// drawn on them: a patch of bare paint on the office's north wall goes flat, while its
+// poster (random colours, drawn between the paint's texture and its grain) stays the same
+// but for the grain, so the scene's generator was drawn from the same.
+TEST(SurfaceTextureTest, BarePaintIsFlatAndThePicturesStay) {
+  auto north_wall = [](double texture) {
+    Scenario s = LoadScenario("office");
+    s.surface_texture = texture;
+    const std::shared_ptr<const Scene> scene = BuildScene(s);
+    const auto wall = std::find_if(scene->planes.begin(), scene->planes.end(),
+                                   [](const Plane& p) { return p.name == "wall_north"; });
+    return std::make_pair(scene, scene->textures.at(wall->texture));
+  };
+  // Grey levels of the wall's texels over a region (plane metres), 1 cm apart.
+  auto patch = [](const Texture& texture, double a0, double b0, double a1, double b1) {
+    std::vector<double> grey;
+    for (double a = a0; a < a1; a += 0.01) {
+      for (double b = b0; b < b1; b += 0.01) {
+        const cv::Vec3f bgr = texture.Sample(Footprint{a, b, 0.0, 0.0, 0.0, 0.0});
+        grey.push_back((bgr[0] + bgr[1] + bgr[2]) / 3.0);
+      }
+    }
+    return grey;
+  };
+  auto spread = [](const std::vector<double>& v) {
+    double mean = 0.0, square = 0.0;
+    for (double x : v) mean += x / double(v.size());
+    for (double x : v) square += (x - mean) * (x - mean) / double(v.size());
+    return std::sqrt(square);
+  };
+  const auto [textured_scene, textured] = north_wall(1.0);
+  const auto [half_scene, half] = north_wall(0.5);
+  const auto [bare_scene, bare] = north_wall(0.0);
+  // Bare paint left of the window (which starts 1.4 m along, 0.6 m down).
+  const double textured_spread = spread(patch(textured, 0.1, 0.1, 1.2, 0.5));
+  const double half_spread = spread(patch(half, 0.1, 0.1, 1.2, 0.5));
+  const double bare_spread = spread(patch(bare, 0.1, 0.1, 1.2, 0.5));
+  EXPECT_GT(textured_spread, 2.0);
+  EXPECT_NEAR(half_spread / textured_spread, 0.5, 0.1);
+  EXPECT_LT(bare_spread, 0.05);
+  // The poster 6.1 m along: only the grain (+-5 grey levels at full texture) differs.
+  const std::vector<double> poster_textured = patch(textured, 6.15, 0.75, 6.65, 1.5);
+  const std::vector<double> poster_bare = patch(bare, 6.15, 0.75, 6.65, 1.5);
+  double most = 0.0;
+  for (size_t i = 0; i < poster_bare.size(); ++i) {
+    most = std::max(most, std::abs(poster_bare[i] - poster_textured[i]));
+  }
+  EXPECT_LE(most, 5.5);
+  EXPECT_GT(spread(poster_bare), 20.0);  // It is a picture, not paint.
 }
 
 // --- Lenses and intrinsics profiles -------------------------------------------------------
@@ -732,6 +784,10 @@ TEST(ScenarioTest, OverridesAndSpecs) {
   EXPECT_EQ(s.people, 4);
   EXPECT_THROW(ApplyScenarioOverride(&s, "people", "101"), Error);
   EXPECT_THROW(ApplyScenarioOverride(&s, "motion", "static"), Error);  // People need a walk.
+  ApplyScenarioOverride(&s, "surface_texture", "0.25");
+  EXPECT_EQ(s.surface_texture, 0.25);
+  EXPECT_THROW(ApplyScenarioOverride(&s, "surface_texture", "1.5"), Error);
+  EXPECT_THROW(ApplyScenarioOverride(&s, "surface_texture", "bare"), Error);
   EXPECT_EQ(s.accelerometer.rate_hz, 800.0);  // Failed overrides change nothing.
   EXPECT_THROW(ParseScenarioSpec("office,lens"), Error);
   EXPECT_THROW(ParseScenarioSpec("nowhere"), Error);

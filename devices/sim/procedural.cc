@@ -128,15 +128,18 @@ void Canvas::Grain(double amplitude, cv::RNG& rng) {
   image_f.convertTo(image_, CV_8UC3);
 }
 
-void Canvas::Flecks(double size_m, double fraction, const cv::Scalar& colour, cv::RNG& rng) {
+void Canvas::Flecks(double size_m, double fraction, const cv::Scalar& colour, cv::RNG& rng,
+                    double opacity) {
   const double fleck_area = size_m * size_m;
   const int count = static_cast<int>(width_m() * height_m() * fraction / fleck_area);
   const int radius = std::max(1, Px(0.5 * size_m));
+  cv::Mat flecked = opacity < 1.0 ? image_.clone() : image_;
   for (int i = 0; i < count; ++i) {
     const cv::Point p(rng.uniform(0, image_.cols), rng.uniform(0, image_.rows));
     const double k = rng.uniform(0.7, 1.3);
-    cv::circle(image_, p, radius, Shade(colour, k), cv::FILLED, cv::LINE_AA);
+    cv::circle(flecked, p, radius, Shade(colour, k), cv::FILLED, cv::LINE_AA);
   }
+  if (opacity < 1.0) cv::addWeighted(flecked, opacity, image_, 1.0 - opacity, 0.0, image_);
 }
 
 std::string RandomWord(cv::RNG& rng, int length) {

@@ -42,8 +42,10 @@ class Canvas {
               const cv::Vec3f& tint = {1.f, 1.f, 1.f});
   // Independent per-texel grey noise of the given amplitude.
   void Grain(double amplitude, cv::RNG& rng);
-  // Random small flecks of the given colour covering `fraction` of the area.
-  void Flecks(double size_m, double fraction, const cv::Scalar& colour, cv::RNG& rng);
+  // Random small flecks of the given colour covering `fraction` of the area, blended over
+  // the canvas with `opacity` (0: invisible; the generator is drawn from the same either way).
+  void Flecks(double size_m, double fraction, const cv::Scalar& colour, cv::RNG& rng,
+              double opacity = 1.0);
 
  private:
   cv::Mat image_;  // CV_8UC3.

@@ -106,6 +106,8 @@ bool Scenario::Check(std::string* error) const {
     why << "people: must be in [0, " << kMostPeople << "], got " << people;
   } else if (people > 0 && m.type != "walk") {
     why << "people: they cross the walking camera's view; motion.type must be walk";
+  } else if (!in(surface_texture, 0.0, 1.0)) {
+    why << "surface_texture: must be in [0, 1], got " << surface_texture;
   }
   for (size_t i = 0; why.str().empty() && i < intrinsics_events.size(); ++i) {
     const IntrinsicsEvent& e = intrinsics_events[i];

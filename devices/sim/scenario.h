@@ -109,6 +109,11 @@ struct Scenario {
   // People walking across the camera's view, one after another over the duration (the
   // scene's only moving surfaces): a team around a vest, passers-by in front of a vehicle.
   int people = 0;
+  // Strength of the fine texture (mottle, flecks, grain) on the indoor scenes' painted walls
+  // and floors: 1 as drawn, 0 bare paint and plain tiles, as many real rooms are. Pictures,
+  // doors, furniture, tile patterns and ceilings keep theirs; the outdoor and checkerboard
+  // scenes are not changed.
+  double surface_texture = 1.0;
 
   // Values that make sense; names the wrong field.
   bool Check(std::string* error) const;

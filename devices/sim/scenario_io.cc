@@ -88,7 +88,8 @@ class ScenarioReader {
     if (!root.isMap()) Fail("(top level)", "expected a map of fields");
     Keys(root, "",
          {"name", "description", "scene", "lens", "resolution", "fps", "seconds", "seed", "motion",
-          "accelerometer", "image", "checkerboard", "intrinsics_events", "disturbances", "people"});
+          "accelerometer", "image", "checkerboard", "intrinsics_events", "disturbances", "people",
+          "surface_texture"});
     if (!root["name"].empty()) s->name = String(root["name"], "name");
     if (!root["description"].empty()) s->description = String(root["description"], "description");
     if (!root["scene"].empty()) s->scene = String(root["scene"], "scene");
@@ -115,6 +116,9 @@ class ScenarioReader {
                                           [this](auto& n, auto& f, auto* d) { Disturb(n, f, d); });
     }
     if (!root["people"].empty()) s->people = Integer(root["people"], "people");
+    if (!root["surface_texture"].empty()) {
+      s->surface_texture = Number(root["surface_texture"], "surface_texture");
+    }
   }
 
  private:
@@ -403,11 +407,13 @@ void SetField(Scenario* scenario, const std::string& key, const std::string& val
     number(&s.image.exposure_ms);
   } else if (key == "people") {
     integer(&s.people, 0, kMostPeople);
+  } else if (key == "surface_texture") {
+    number(&s.surface_texture);
   } else {
     throw Error("unknown scenario override '" + key +
                 "', expected one of: scene, lens, motion, seconds, fps, resolution, seed, "
                 "accel_rate, accel_noise, accel_range_g, accel_bits, noise_sigma, vignetting, "
-                "chromatic_px, supersampling, readout_ms, exposure_ms, people");
+                "chromatic_px, supersampling, readout_ms, exposure_ms, people, surface_texture");
   }
 }
 

@@ -76,17 +76,20 @@ cv::Scalar Jitter(const cv::Scalar& colour, int amount, cv::RNG& rng) {
 }
 
 // Painted wall: mottled paint, skirting board, then the furniture drawn by `furnish`, then
-// a fine grain so that even bare paint has texture to track.
+// a fine grain so that even bare paint has texture to track. `texture` scales the paint's
+// mottle, flecks and grain (Scenario::surface_texture); the generator is drawn from the
+// same at any strength, so the furniture stays as it is.
 template <typename Furnish>
 Canvas PaintedWall(double width_m, double height_m, double texel_m, const cv::Scalar& paint,
-                   cv::RNG& rng, Furnish furnish) {
+                   double texture, cv::RNG& rng, Furnish furnish) {
   Canvas c(width_m, height_m, texel_m, paint);
-  c.Mottle(0.4, 14.0, rng);
-  c.Flecks(0.004, 0.004, cv::Scalar(paint[0] * 0.85, paint[1] * 0.85, paint[2] * 0.85), rng);
+  c.Mottle(0.4, 14.0 * texture, rng);
+  c.Flecks(0.004, 0.004, cv::Scalar(paint[0] * 0.85, paint[1] * 0.85, paint[2] * 0.85), rng,
+           texture);
   c.Fill(0.0, height_m - 0.08, width_m, 0.08, cv::Scalar(55, 60, 70));
   c.Fill(0.0, height_m - 0.085, width_m, 0.006, cv::Scalar(120, 125, 130));
   furnish(c);
-  c.Grain(5.0, rng);
+  c.Grain(5.0 * texture, rng);
   return c;
 }
 
@@ -96,7 +99,8 @@ void DrawSwitch(Canvas* c, double a, double b) {
   c->Fill(a + 0.025, b + 0.02, 0.03, 0.04, cv::Scalar(200, 200, 200));
 }
 
-Canvas Carpet(double width_m, double height_m, double texel_m, cv::RNG& rng) {
+// Carpet tiles; `texture` scales their pile (mottle, flecks, grain), not the tiles' tones.
+Canvas Carpet(double width_m, double height_m, double texel_m, double texture, cv::RNG& rng) {
   Canvas c(width_m, height_m, texel_m, cv::Scalar(105, 92, 85));
   constexpr double kTile = 0.5;
   for (double b = 0.0; b < height_m; b += kTile) {
@@ -104,14 +108,14 @@ Canvas Carpet(double width_m, double height_m, double texel_m, cv::RNG& rng) {
       c.Fill(a, b, kTile, kTile, Jitter(cv::Scalar(105, 92, 85), 12, rng));
     }
   }
-  c.Mottle(0.15, 16.0, rng);
-  c.Flecks(0.008, 0.025, cv::Scalar(150, 140, 132), rng);
-  c.Flecks(0.006, 0.02, cv::Scalar(65, 58, 52), rng);
+  c.Mottle(0.15, 16.0 * texture, rng);
+  c.Flecks(0.008, 0.025, cv::Scalar(150, 140, 132), rng, texture);
+  c.Flecks(0.006, 0.02, cv::Scalar(65, 58, 52), rng, texture);
   for (double a = 0.0; a <= width_m; a += kTile)
     c.Fill(a - 0.002, 0.0, 0.004, height_m, {70, 62, 58});
   for (double b = 0.0; b <= height_m; b += kTile)
     c.Fill(0.0, b - 0.002, width_m, 0.004, {70, 62, 58});
-  c.Grain(8.0, rng);
+  c.Grain(8.0 * texture, rng);
   return c;
 }
 
@@ -239,14 +243,14 @@ void AddBox(SceneBuilder* builder, const std::string& name, const Eigen::Vector3
   }
 }
 
-Scene BuildOffice(uint32_t seed) {
+Scene BuildOffice(uint32_t seed, double texture) {
   // Room x in [-4, 4], y in [-3, 3], z in [0, 2.8]; walls are named by the direction
   // they lie in.
   constexpr double kW = 8.0, kD = 6.0, kH = 2.8;
   SceneBuilder builder("office", seed);
   {
     cv::RNG rng = builder.NextRng();
-    builder.AddUpFacing("floor", -4.0, 3.0, 0.0, Carpet(kW, kD, 0.005, rng), 0.9f);
+    builder.AddUpFacing("floor", -4.0, 3.0, 0.0, Carpet(kW, kD, 0.005, texture, rng), 0.9f);
   }
   {
     cv::RNG rng = builder.NextRng();
@@ -255,7 +259,7 @@ Scene BuildOffice(uint32_t seed) {
   const cv::Scalar paint(200, 215, 222);
   {
     cv::RNG rng = builder.NextRng();
-    Canvas wall = PaintedWall(kW, kH, 0.004, paint, rng, [&](Canvas& c) {
+    Canvas wall = PaintedWall(kW, kH, 0.004, paint, texture, rng, [&](Canvas& c) {
       DrawWindow(&c, 1.4, 0.6, 1.8, 1.3, 3, 2, rng);
       DrawRadiator(&c, 1.5, 2.15, 1.6, 0.45);
       DrawWhiteboard(&c, 3.7, 0.75, 2.0, 1.1, rng);
@@ -268,7 +272,7 @@ Scene BuildOffice(uint32_t seed) {
   }
   {
     cv::RNG rng = builder.NextRng();
-    Canvas wall = PaintedWall(kD, kH, 0.004, paint, rng, [&](Canvas& c) {
+    Canvas wall = PaintedWall(kD, kH, 0.004, paint, texture, rng, [&](Canvas& c) {
       DrawDoor(&c, 0.6, 0.7, 0.95, 2.1, false, rng);
       DrawSwitch(&c, 1.7, 1.5);
       DrawBookshelf(&c, 2.1, 0.8, 1.4, 2.0, rng);
@@ -281,20 +285,21 @@ Scene BuildOffice(uint32_t seed) {
   }
   {
     cv::RNG rng = builder.NextRng();
-    Canvas wall = PaintedWall(kW, kH, 0.004, cv::Scalar(185, 210, 215), rng, [&](Canvas& c) {
-      DrawNoticeBoard(&c, 1.4, 0.8, 1.5, 1.0, rng);
-      DrawPoster(&c, 3.3, 0.75, 0.6, 0.85, rng);
-      DrawPicture(&c, 4.2, 1.0, 0.9, 0.6, rng);
-      DrawDoor(&c, 5.8, 0.7, 0.95, 2.1, false, rng);
-      DrawSwitch(&c, 6.9, 1.5);
-      DrawPoster(&c, 7.2, 0.9, 0.5, 0.7, rng);
-      DrawSocket(&c, 2.0, 2.45);
-    });
+    Canvas wall =
+        PaintedWall(kW, kH, 0.004, cv::Scalar(185, 210, 215), texture, rng, [&](Canvas& c) {
+          DrawNoticeBoard(&c, 1.4, 0.8, 1.5, 1.0, rng);
+          DrawPoster(&c, 3.3, 0.75, 0.6, 0.85, rng);
+          DrawPicture(&c, 4.2, 1.0, 0.9, 0.6, rng);
+          DrawDoor(&c, 5.8, 0.7, 0.95, 2.1, false, rng);
+          DrawSwitch(&c, 6.9, 1.5);
+          DrawPoster(&c, 7.2, 0.9, 0.5, 0.7, rng);
+          DrawSocket(&c, 2.0, 2.45);
+        });
     builder.AddVertical("wall_south", Eigen::Vector3d::UnitY(), {4.0, -3.0, kH}, wall, 0.8f);
   }
   {
     cv::RNG rng = builder.NextRng();
-    Canvas wall = PaintedWall(kD, kH, 0.004, paint, rng, [&](Canvas& c) {
+    Canvas wall = PaintedWall(kD, kH, 0.004, paint, texture, rng, [&](Canvas& c) {
       DrawWindow(&c, 0.9, 0.6, 1.8, 1.3, 2, 2, rng);
       DrawRadiator(&c, 1.0, 2.15, 1.6, 0.45);
       DrawPoster(&c, 3.1, 0.8, 0.5, 0.7, rng);
@@ -326,34 +331,37 @@ Scene BuildOffice(uint32_t seed) {
   return std::move(builder.scene());
 }
 
-Canvas CorridorWall(double length_m, double height_m, double first_door_m, cv::RNG& rng) {
-  return PaintedWall(length_m, height_m, 0.006, cv::Scalar(190, 220, 230), rng, [&](Canvas& c) {
-    // Handrail 0.9 m above the floor along the whole wall: a long vanishing line.
-    c.Fill(0.0, height_m - 0.92, length_m, 0.04, cv::Scalar(50, 80, 110));
-    int i = 0;
-    for (double a = first_door_m; a + 1.0 < length_m; a += 4.5, ++i) {
-      DrawDoor(&c, a, height_m - 2.1, 0.95, 2.1, true, rng);
-      c.Fill(a + 1.05, height_m - 1.55, 0.25, 0.12, cv::Scalar(240, 240, 240));
-      c.Text(RandomWord(rng, 4), a + 1.07, height_m - 1.46, 0.05, cv::Scalar(30, 30, 30));
-      const double gap = a + 1.5;
-      switch (i % 3) {
-        case 0:
-          DrawPoster(&c, gap + 0.5, height_m - 2.0, 0.6, 0.85, rng);
-          DrawPoster(&c, gap + 1.4, height_m - 1.9, 0.5, 0.7, rng);
-          break;
-        case 1:
-          DrawNoticeBoard(&c, gap + 0.4, height_m - 2.0, 1.6, 0.9, rng);
-          break;
-        default:
-          DrawPicture(&c, gap + 0.6, height_m - 1.9, 0.9, 0.6, rng);
-          c.Fill(gap + 2.2, height_m - 0.65, 0.15, 0.4, cv::Scalar(30, 30, 200));  // Extinguisher.
-          break;
-      }
-    }
-  });
+Canvas CorridorWall(double length_m, double height_m, double first_door_m, double texture,
+                    cv::RNG& rng) {
+  return PaintedWall(
+      length_m, height_m, 0.006, cv::Scalar(190, 220, 230), texture, rng, [&](Canvas& c) {
+        // Handrail 0.9 m above the floor along the whole wall: a long vanishing line.
+        c.Fill(0.0, height_m - 0.92, length_m, 0.04, cv::Scalar(50, 80, 110));
+        int i = 0;
+        for (double a = first_door_m; a + 1.0 < length_m; a += 4.5, ++i) {
+          DrawDoor(&c, a, height_m - 2.1, 0.95, 2.1, true, rng);
+          c.Fill(a + 1.05, height_m - 1.55, 0.25, 0.12, cv::Scalar(240, 240, 240));
+          c.Text(RandomWord(rng, 4), a + 1.07, height_m - 1.46, 0.05, cv::Scalar(30, 30, 30));
+          const double gap = a + 1.5;
+          switch (i % 3) {
+            case 0:
+              DrawPoster(&c, gap + 0.5, height_m - 2.0, 0.6, 0.85, rng);
+              DrawPoster(&c, gap + 1.4, height_m - 1.9, 0.5, 0.7, rng);
+              break;
+            case 1:
+              DrawNoticeBoard(&c, gap + 0.4, height_m - 2.0, 1.6, 0.9, rng);
+              break;
+            default:
+              DrawPicture(&c, gap + 0.6, height_m - 1.9, 0.9, 0.6, rng);
+              c.Fill(gap + 2.2, height_m - 0.65, 0.15, 0.4,
+                     cv::Scalar(30, 30, 200));  // Extinguisher.
+              break;
+          }
+        }
+      });
 }
 
-Scene BuildCorridor(uint32_t seed) {
+Scene BuildCorridor(uint32_t seed, double texture) {
   // x in [-15, 15], y in [-1.2, 1.2], z in [0, 2.7].
   constexpr double kL = 30.0, kW = 2.4, kH = 2.7;
   SceneBuilder builder("corridor", seed);
@@ -366,11 +374,11 @@ Scene BuildCorridor(uint32_t seed) {
         floor.Fill(a, b, kTile, kTile, Jitter(cv::Scalar(165, 172, 178), 18, rng));
       }
     }
-    floor.Flecks(0.01, 0.03, cv::Scalar(130, 135, 140), rng);
-    floor.Flecks(0.008, 0.02, cv::Scalar(215, 215, 215), rng);
+    floor.Flecks(0.01, 0.03, cv::Scalar(130, 135, 140), rng, texture);
+    floor.Flecks(0.008, 0.02, cv::Scalar(215, 215, 215), rng, texture);
     for (double a = 0.0; a <= kL; a += kTile) floor.Fill(a - 0.003, 0.0, 0.006, kW, {95, 95, 100});
     for (double b = 0.0; b <= kW; b += kTile) floor.Fill(0.0, b - 0.003, kL, 0.006, {95, 95, 100});
-    floor.Grain(6.0, rng);
+    floor.Grain(6.0 * texture, rng);
     builder.AddUpFacing("floor", -15.0, 1.2, 0.0, floor, 0.9f);
   }
   {
@@ -380,29 +388,31 @@ Scene BuildCorridor(uint32_t seed) {
   {
     cv::RNG rng = builder.NextRng();
     builder.AddVertical("wall_north", -Eigen::Vector3d::UnitY(), {-15.0, 1.2, kH},
-                        CorridorWall(kL, kH, 1.5, rng), 0.92f);
+                        CorridorWall(kL, kH, 1.5, texture, rng), 0.92f);
   }
   {
     cv::RNG rng = builder.NextRng();
     builder.AddVertical("wall_south", Eigen::Vector3d::UnitY(), {15.0, -1.2, kH},
-                        CorridorWall(kL, kH, 3.5, rng), 0.82f);
+                        CorridorWall(kL, kH, 3.5, texture, rng), 0.82f);
   }
   {
     cv::RNG rng = builder.NextRng();
-    Canvas end = PaintedWall(kW, kH, 0.004, cv::Scalar(190, 220, 230), rng, [&](Canvas& c) {
-      DrawDoor(&c, 0.25, kH - 2.1, 0.95, 2.1, true, rng);
-      DrawDoor(&c, 1.2, kH - 2.1, 0.95, 2.1, true, rng);
-      c.Fill(0.9, 0.2, 0.6, 0.2, cv::Scalar(60, 160, 40));  // Exit sign.
-      c.Text("EXIT", 1.0, 0.35, 0.1, cv::Scalar(255, 255, 255));
-    });
+    Canvas end =
+        PaintedWall(kW, kH, 0.004, cv::Scalar(190, 220, 230), texture, rng, [&](Canvas& c) {
+          DrawDoor(&c, 0.25, kH - 2.1, 0.95, 2.1, true, rng);
+          DrawDoor(&c, 1.2, kH - 2.1, 0.95, 2.1, true, rng);
+          c.Fill(0.9, 0.2, 0.6, 0.2, cv::Scalar(60, 160, 40));  // Exit sign.
+          c.Text("EXIT", 1.0, 0.35, 0.1, cv::Scalar(255, 255, 255));
+        });
     builder.AddVertical("end_east", -Eigen::Vector3d::UnitX(), {15.0, 1.2, kH}, end, 0.95f);
   }
   {
     cv::RNG rng = builder.NextRng();
-    Canvas end = PaintedWall(kW, kH, 0.004, cv::Scalar(190, 220, 230), rng, [&](Canvas& c) {
-      DrawWindow(&c, 0.3, 0.5, 1.8, 1.5, 3, 3, rng);
-      DrawRadiator(&c, 0.4, 2.1, 1.6, 0.45);
-    });
+    Canvas end =
+        PaintedWall(kW, kH, 0.004, cv::Scalar(190, 220, 230), texture, rng, [&](Canvas& c) {
+          DrawWindow(&c, 0.3, 0.5, 1.8, 1.5, 3, 3, rng);
+          DrawRadiator(&c, 0.4, 2.1, 1.6, 0.45);
+        });
     builder.AddVertical("end_west", Eigen::Vector3d::UnitX(), {-15.0, -1.2, kH}, end, 0.9f);
   }
   return std::move(builder.scene());
@@ -599,7 +609,7 @@ Scene AddPeople(Scene scene, const Scenario& scenario) {
 // The scene without its people, cached.
 std::shared_ptr<const Scene> BuildStillScene(const Scenario& scenario) {
   std::ostringstream key;
-  key << scenario.scene << "/" << scenario.seed;
+  key << scenario.scene << "/" << scenario.seed << "/" << scenario.surface_texture;
   if (scenario.scene == "checkerboard") {
     key << "/" << scenario.checkerboard.squares_x << "x" << scenario.checkerboard.squares_y << "/"
         << scenario.checkerboard.square_m;
@@ -612,9 +622,9 @@ std::shared_ptr<const Scene> BuildStillScene(const Scenario& scenario) {
   if (auto cached = cache[key.str()].lock()) return cached;
   std::shared_ptr<const Scene> scene;
   if (scenario.scene == "office") {
-    scene = std::make_shared<const Scene>(BuildOffice(scenario.seed));
+    scene = std::make_shared<const Scene>(BuildOffice(scenario.seed, scenario.surface_texture));
   } else if (scenario.scene == "corridor") {
-    scene = std::make_shared<const Scene>(BuildCorridor(scenario.seed));
+    scene = std::make_shared<const Scene>(BuildCorridor(scenario.seed, scenario.surface_texture));
   } else if (scenario.scene == "outdoor") {
     scene = std::make_shared<const Scene>(BuildOutdoor(scenario.seed));
   } else if (scenario.scene == "checkerboard") {
