@@ -76,9 +76,9 @@ cv::Scalar Jitter(const cv::Scalar& colour, int amount, cv::RNG& rng) {
 }
 
 // Painted wall: mottled paint, skirting board, then the furniture drawn by `furnish`, then
-// a fine grain so that even bare paint has texture to track. `texture` scales the paint's
-// mottle, flecks and grain (Scenario::surface_texture); the generator is drawn from the
-// same at any strength, so the furniture stays as it is.
+// a fine grain. `texture` scales the paint's mottle, flecks and grain
+// (Scenario::surface_texture; at 1 the paint has texture to track everywhere, at 0 none);
+// the generator is drawn from the same at any strength, so the furniture stays as it is.
 template <typename Furnish>
 Canvas PaintedWall(double width_m, double height_m, double texel_m, const cv::Scalar& paint,
                    double texture, cv::RNG& rng, Furnish furnish) {
