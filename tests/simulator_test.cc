@@ -921,6 +921,14 @@ TEST_F(SimulatorTest, SequenceDescribesItselfAndItsTruth) {
   }
   EXPECT_GT(truth[59].intrinsics.fx, truth[0].intrinsics.fx);
   EXPECT_THROW(sequence->LoadFrame(60), Error);
+  EXPECT_EQ(session.notes.find("people"), std::string::npos);
+  EXPECT_EQ(session.notes.find("surface texture"), std::string::npos);
+  // A recording says what the scenario changed of its scene.
+  Scenario changed = Small("office");
+  changed.people = 2;
+  changed.surface_texture = 0.25;
+  EXPECT_PRED_FORMAT2(::testing::IsSubstring, "seed 1, 2 people, surface texture 0.25)",
+                      MakeSimulatedSequence(changed)->session().notes);
 
   // The scene description lists every plane with its id.
   const std::string yaml = SceneDescriptionYaml(s);

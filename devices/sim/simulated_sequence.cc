@@ -23,6 +23,15 @@
 namespace autocal {
 namespace {
 
+// What the scenario sets of its scene's content beyond the scene itself, for the
+// recording's notes (so that a recording says it had people or bare walls); "" for none.
+std::string SceneChangesText(const Scenario& scenario) {
+  std::ostringstream text;
+  if (scenario.people > 0) text << ", " << scenario.people << " people";
+  if (scenario.surface_texture != 1.0) text << ", surface texture " << scenario.surface_texture;
+  return text.str();
+}
+
 class SimulatedSequence : public Sequence {
  public:
   explicit SimulatedSequence(const Scenario& scenario)
@@ -42,7 +51,8 @@ class SimulatedSequence : public Sequence {
     session_.premission_calibration = IntrinsicsAt(scenario, 0.0);
     session_.cam_from_accel = CamFromAccel(a);
     session_.notes = scenario.description + " (scenario " + scenario.name + ", scene " +
-                     scenario.scene + ", seed " + std::to_string(scenario.seed) + ")";
+                     scenario.scene + ", seed " + std::to_string(scenario.seed) +
+                     SceneChangesText(scenario) + ")";
     accel_ = SimulateAccelerometer(scenario, trajectory_);
     const size_t n = scenario.frame_count();
     truth_.reserve(n);
