@@ -23,7 +23,9 @@ struct AcceptanceOptions {
   double max_rms_px = 1.0;  // Attempts with a larger reprojection RMS are rejected.
   double max_sigma = 3.0;  // An attempt fits the trend (or another attempt) within this many sigma.
   // Least sigmas of an attempt, added to its covariance: box 10's scatter beyond what its
-  // covariance admits (model error, correlated track noise).
+  // covariance admits (model error; set when the covariance took each view of a track for
+  // independent, kept since it counts them as one: docs/calibration.md, "How far an attempt's
+  // sigmas can be trusted").
   double focal_floor_fraction = 0.003;  // fx, fy, as a fraction of the pre-mission focal length.
   double principal_floor_px = 1.0;      // cx, cy.
   double distortion_floor_px = 0.5;     // Displacement caused by the distortion.

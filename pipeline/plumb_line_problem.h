@@ -86,8 +86,17 @@ std::vector<double*> AddPlumbLineResiduals(const std::vector<const LineObservati
 // every non-constant block, the intrinsics in group 1 and in group 0 only blocks seen by
 // no residual together with another group-0 block (points, lines); std::logic_error if
 // not. Empty when the intrinsics are not constrained.
+//
+// With `clustered`, also the covariance that does not take the residuals for independent:
+// the sandwich H^-1 (sum over clusters of g g^T) H^-1, g a cluster's gradient J^T r, each
+// group-0 block's residuals one cluster (a point's views, a line's points) and every other
+// residual its own. A tracked point's errors carry over from view to view (Lucas-Kanade's
+// drift), so its views say less than as many independent ones; this counts them as what
+// they scatter by together. Its scale is the residuals' own (not unit variance), with the
+// small-sample factor n / (n - 1) over n clusters.
 std::optional<Eigen::MatrixXd> MarginalCovariance(ceres::Problem* problem,
                                                   const ceres::ParameterBlockOrdering& ordering,
-                                                  double* intrinsics);
+                                                  double* intrinsics,
+                                                  Eigen::MatrixXd* clustered = nullptr);
 
 }  // namespace autocal

@@ -1028,14 +1028,17 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     if (std::find(fixed.begin(), fixed.end(), i) == fixed.end())
       result.free_parameters.push_back(i);
   }
-  const std::optional<Eigen::MatrixXd> unit_covariance =
-      MarginalCovariance(&problem, *solver_options.linear_solver_ordering, intrinsics_block);
+  Eigen::MatrixXd clustered;
+  const std::optional<Eigen::MatrixXd> unit_covariance = MarginalCovariance(
+      &problem, *solver_options.linear_solver_ordering, intrinsics_block, &clustered);
   if (!unit_covariance) {
     return no_update("the material does not constrain the intrinsics (singular covariance)");
   }
-  // The residuals are pixels with the RMS found, not of unit variance.
-  const double variance = std::max(result.rms_px * result.rms_px, 1e-4);
-  result.covariance = variance * *unit_covariance;
+  // A track's views taken for independent made the sigmas half what the attempts scatter
+  // by (docs/calibration.md, "How far an attempt's sigmas can be trusted"): each point's
+  // views count as one cluster. The unit covariance at 0.01 px keeps noiseless material
+  // from claiming certainty.
+  result.covariance = clustered + 1e-4 * *unit_covariance;
   const double focal_sigma = std::sqrt(result.covariance(0, 0)) / estimate.fx;  // fx is free.
   result.estimate = estimate;
   if (focal_sigma > options.max_focal_sigma) {

@@ -139,7 +139,8 @@ struct SelfCalibrationResult {
   bool usable = false;
   std::string reason;  // Why not ("no update: insufficient rotation ..."), or a report.
   CameraIntrinsics estimate;
-  // Covariance of the free intrinsics, in the order of `free_parameters` (IntrinsicIndex).
+  // Covariance of the free intrinsics, in the order of `free_parameters` (IntrinsicIndex),
+  // each point's views one cluster of errors (MarginalCovariance's `clustered`).
   Eigen::MatrixXd covariance;
   std::vector<int> free_parameters;
   double rms_px = 0.0;               // Reprojection RMS of the plane tracks.

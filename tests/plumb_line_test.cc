@@ -4,7 +4,10 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
+#include <memory>
+#include <stdexcept>
 #include <vector>
 
 #include <ceres/ceres.h>
@@ -169,83 +172,244 @@ TEST(PlumbLine, MarginalCovarianceAgreesWithCeresDenseSvd) {
   ExpectCovarianceMatchesCeresDenseSvd(&problem, intrinsics, *ours);
 }
 
-// The same on a problem laid out as box 10 lays out its own: a plane's points seen from
-// several views, each point on its ray in the plane's reference view (eliminated), the
-// views and the plane in group 1, the reference view held and the plane's distance from it
-// (the gauge), straight lines as well; fx, fy, cx, cy, k1, k2 free: the complement gathers
-// eliminated rays and lines, and keeps views, a plane and the intrinsics.
+// A problem laid out as box 10 lays out its own: a plane's points seen from several views,
+// each point on its ray in the plane's reference view (eliminated), the views and the plane
+// in group 1, the reference view held and the plane's distance from it (the gauge), straight
+// lines as well; fx, fy, cx, cy, k1, k2 free. `noise(point, view)` displaces each observed
+// pixel. Solved on construction.
+class PlaneSeenFromViews {
+ public:
+  // Views turned about the plane's centre, 2 m ahead, by up to 29 deg.
+  static std::vector<Eigen::Vector3d> ScatteredTurns() {
+    return {Eigen::Vector3d(0.4, 0.0, 0.1), Eigen::Vector3d(0.0, 0.45, 0.0),
+            Eigen::Vector3d(-0.3, -0.3, 0.2), Eigen::Vector3d(0.2, -0.45, -0.1),
+            Eigen::Vector3d(-0.35, 0.3, 0.0)};
+  }
+
+  PlaneSeenFromViews(const CameraIntrinsics& truth, cv::RNG& rng,
+                     const std::function<Eigen::Vector2d(int, int)>& noise,
+                     const std::vector<Eigen::Vector3d>& turns = ScatteredTurns())
+      : observed_lines_(SampleLines(truth, 6, 0, 0.3, rng)) {
+    std::vector<const LineObservation*> lines;
+    for (const LineObservation& line : observed_lines_) lines.push_back(&line);
+    std::vector<Eigen::Vector2d> points;
+    for (double u = 0.0; u <= 1.6; u += 0.2) {
+      for (double v = 0.0; v <= 1.2; v += 0.2) points.emplace_back(u, v);
+    }
+    // The views turned by `turns` about the plane's centre, 2 m ahead.
+    std::vector<std::array<double, 6>> views = {{0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
+    for (const Eigen::Vector3d& turn : turns) {
+      const Eigen::Vector3d ahead(0.0, 0.0, 2.0);
+      const Eigen::Vector3d shift =
+          ahead - Eigen::AngleAxisd(turn.norm(), turn.normalized()) * ahead;
+      views.push_back({turn.x(), turn.y(), turn.z(), shift.x(), shift.y(), shift.z()});
+    }
+    const std::array<double, 3> plane = {0.0, 0.0, 0.5};  // z = 2 in view 0.
+
+    arena_ = std::make_unique<ParameterArena>(kNumIntrinsics + 6 * views.size() + 3 +
+                                              2 * points.size() + PlumbLineParameterCount(lines));
+    intrinsics = arena_->Add(truth.Packed());
+    std::vector<double*> view_blocks;
+    for (const auto& view : views) view_blocks.push_back(arena_->Add(view));
+    double* const plane_block = arena_->Add(plane);
+    for (const Eigen::Vector2d& point : points) {
+      ray_blocks.push_back(
+          arena_->Add(std::array{(point.x() - 0.8) / 2.0, (point.y() - 0.6) / 2.0}));
+    }
+    ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (size_t p = 0; p < ray_blocks.size(); ++p) {
+      double* const ray = ray_blocks[p];
+      Eigen::Vector2d pixel;
+      const double* seen[] = {intrinsics, ray};
+      if (!ReferenceRayCost(Eigen::Vector2d::Zero()).Evaluate(seen, pixel.data(), nullptr)) {
+        throw std::logic_error("a point's ray does not project");
+      }
+      problem.AddResidualBlock(new ReferenceRayCost(pixel + noise(int(p), 0)),
+                               new ceres::CauchyLoss(1.0), intrinsics, ray);
+      for (size_t v = 1; v < view_blocks.size(); ++v) {
+        if (!PlanePointCost(Eigen::Vector2d::Zero())
+                 .Residual(intrinsics, view_blocks[v], view_blocks[0], plane_block, ray,
+                           pixel.data())) {
+          throw std::logic_error("a point does not project into a view");
+        }
+        problem.AddResidualBlock(new PlanePointCost(pixel + noise(int(p), int(v))),
+                                 new ceres::CauchyLoss(1.0), intrinsics, view_blocks[v],
+                                 view_blocks[0], plane_block, ray);
+      }
+      ordering->AddElementToGroup(ray, 0);
+    }
+    problem.SetParameterBlockConstant(view_blocks[0]);
+    for (double* view : view_blocks) ordering->AddElementToGroup(view, 1);
+    problem.SetManifold(plane_block, new ceres::SphereManifold<3>());
+    ordering->AddElementToGroup(plane_block, 1);
+    line_blocks = AddPlumbLineResiduals(lines, truth, 1.0, intrinsics, &problem, ordering.get(),
+                                        arena_.get());
+    problem.SetManifold(intrinsics, new ceres::SubsetManifold(kNumIntrinsics, {kP1, kP2, kK3}));
+    ordering->AddElementToGroup(intrinsics, 1);
+    ceres::Solver::Options options;
+    options.linear_solver_type = ceres::DENSE_SCHUR;
+    options.linear_solver_ordering = ordering;
+    ceres::Solve(options, &problem, &summary);
+  }
+
+  ceres::Problem problem;
+  std::shared_ptr<ceres::ParameterBlockOrdering> ordering;
+  ceres::Solver::Summary summary;
+  double* intrinsics = nullptr;
+  std::vector<double*> ray_blocks;   // One per point.
+  std::vector<double*> line_blocks;  // One per line.
+
+ private:
+  std::vector<LineObservation> observed_lines_;
+  std::unique_ptr<ParameterArena> arena_;
+};
+
+// The Schur complement gathers eliminated rays and lines, and keeps views, a plane and the
+// intrinsics.
 TEST(PlumbLine, MarginalCovarianceOfAPlaneSeenFromSeveralViewsAgreesWithCeresDenseSvd) {
   const CameraIntrinsics truth = test::SonnarLikeCamera(-0.2, 0.05);
   cv::RNG rng(3);
-  const auto observed = SampleLines(truth, 6, 0, 0.3, rng);
-  std::vector<const LineObservation*> lines;
-  for (const LineObservation& line : observed) lines.push_back(&line);
-  std::vector<Eigen::Vector2d> points;
-  for (double u = 0.0; u <= 1.6; u += 0.2) {
-    for (double v = 0.0; v <= 1.2; v += 0.2) points.emplace_back(u, v);
-  }
-  // Views turned about the plane's centre, 2 m ahead, by up to 29 deg.
-  std::vector<std::array<double, 6>> views = {{0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
-  for (const Eigen::Vector3d& turn :
-       {Eigen::Vector3d(0.4, 0.0, 0.1), Eigen::Vector3d(0.0, 0.45, 0.0),
-        Eigen::Vector3d(-0.3, -0.3, 0.2), Eigen::Vector3d(0.2, -0.45, -0.1),
-        Eigen::Vector3d(-0.35, 0.3, 0.0)}) {
-    const Eigen::Vector3d ahead(0.0, 0.0, 2.0);
-    const Eigen::Vector3d shift = ahead - Eigen::AngleAxisd(turn.norm(), turn.normalized()) * ahead;
-    views.push_back({turn.x(), turn.y(), turn.z(), shift.x(), shift.y(), shift.z()});
-  }
-  const std::array<double, 3> plane = {0.0, 0.0, 0.5};  // z = 2 in view 0.
+  PlaneSeenFromViews solved(
+      truth, rng, [&](int, int) { return Eigen::Vector2d(rng.gaussian(0.2), rng.gaussian(0.2)); });
+  ASSERT_TRUE(solved.summary.IsSolutionUsable()) << solved.summary.BriefReport();
 
-  ParameterArena arena(kNumIntrinsics + 6 * views.size() + 3 + 2 * points.size() +
-                       PlumbLineParameterCount(lines));
-  double* const intrinsics = arena.Add(truth.Packed());
-  std::vector<double*> view_blocks;
-  for (const auto& view : views) view_blocks.push_back(arena.Add(view));
-  double* const plane_block = arena.Add(plane);
-  std::vector<double*> ray_blocks;
-  for (const Eigen::Vector2d& point : points) {
-    ray_blocks.push_back(arena.Add(std::array{(point.x() - 0.8) / 2.0, (point.y() - 0.6) / 2.0}));
-  }
-  ceres::Problem problem;
-  auto* ordering = new ceres::ParameterBlockOrdering;
-  const auto noisy = [&](const Eigen::Vector2d& pixel) {
-    return Eigen::Vector2d(pixel.x() + rng.gaussian(0.2), pixel.y() + rng.gaussian(0.2));
-  };
-  for (double* ray : ray_blocks) {
-    Eigen::Vector2d pixel;
-    const double* seen[] = {intrinsics, ray};
-    ASSERT_TRUE(ReferenceRayCost(Eigen::Vector2d::Zero()).Evaluate(seen, pixel.data(), nullptr));
-    problem.AddResidualBlock(new ReferenceRayCost(noisy(pixel)), new ceres::CauchyLoss(1.0),
-                             intrinsics, ray);
-    for (size_t v = 1; v < view_blocks.size(); ++v) {
-      ASSERT_TRUE(PlanePointCost(Eigen::Vector2d::Zero())
-                      .Residual(intrinsics, view_blocks[v], view_blocks[0], plane_block, ray,
-                                pixel.data()));
-      problem.AddResidualBlock(new PlanePointCost(noisy(pixel)), new ceres::CauchyLoss(1.0),
-                               intrinsics, view_blocks[v], view_blocks[0], plane_block, ray);
-    }
-    ordering->AddElementToGroup(ray, 0);
-  }
-  problem.SetParameterBlockConstant(view_blocks[0]);
-  for (double* view : view_blocks) ordering->AddElementToGroup(view, 1);
-  problem.SetManifold(plane_block, new ceres::SphereManifold<3>());
-  ordering->AddElementToGroup(plane_block, 1);
-  AddPlumbLineResiduals(lines, truth, 1.0, intrinsics, &problem, ordering, &arena);
-  problem.SetManifold(intrinsics, new ceres::SubsetManifold(kNumIntrinsics, {kP1, kP2, kK3}));
-  ordering->AddElementToGroup(intrinsics, 1);
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_SCHUR;
-  options.linear_solver_ordering.reset(ordering);
-  ceres::Solver::Summary summary;
-  ceres::Solve(options, &problem, &summary);
-  ASSERT_TRUE(summary.IsSolutionUsable()) << summary.BriefReport();
-
-  const std::optional<Eigen::MatrixXd> ours = MarginalCovariance(&problem, *ordering, intrinsics);
+  const std::optional<Eigen::MatrixXd> ours =
+      MarginalCovariance(&solved.problem, *solved.ordering, solved.intrinsics);
   ASSERT_TRUE(ours.has_value());
   ASSERT_EQ(ours->rows(), 6);  // fx, fy, cx, cy, k1, k2.
-  ExpectCovarianceMatchesCeresDenseSvd(&problem, intrinsics, *ours);
+  ExpectCovarianceMatchesCeresDenseSvd(&solved.problem, solved.intrinsics, *ours);
   // fx is known from the views (the lines alone leave it free).
   EXPECT_LT(std::sqrt((*ours)(0, 0)), 0.02 * truth.fx);
+}
+
+// The clustered covariance against the sandwich formed whole: the dense Jacobian J of every
+// free parameter, H = J^T J, each point's and each line's residuals one cluster and the
+// rest one each, H^-1 (sum of J_c^T r_c r_c^T J_c) H^-1 over the intrinsics, times n/(n-1).
+TEST(PlumbLine, ClusteredCovarianceAgreesWithTheWholeSandwich) {
+  const CameraIntrinsics truth = test::SonnarLikeCamera(-0.2, 0.05);
+  cv::RNG rng(4);
+  PlaneSeenFromViews solved(
+      truth, rng, [&](int, int) { return Eigen::Vector2d(rng.gaussian(0.3), rng.gaussian(0.3)); });
+  ASSERT_TRUE(solved.summary.IsSolutionUsable()) << solved.summary.BriefReport();
+  Eigen::MatrixXd ours;
+  ASSERT_TRUE(
+      MarginalCovariance(&solved.problem, *solved.ordering, solved.intrinsics, &ours).has_value());
+
+  // The free blocks with the intrinsics last; residual blocks in an order whose clusters
+  // are known.
+  std::vector<double*> blocks;
+  solved.problem.GetParameterBlocks(&blocks);
+  std::erase_if(blocks, [&](double* block) {
+    return block == solved.intrinsics || solved.problem.IsParameterBlockConstant(block);
+  });
+  blocks.push_back(solved.intrinsics);
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  std::vector<int> cluster_of_block;
+  int clusters = 0;
+  for (const auto& group : {solved.ray_blocks, solved.line_blocks}) {
+    for (double* block : group) {
+      std::vector<ceres::ResidualBlockId> seeing;
+      solved.problem.GetResidualBlocksForParameterBlock(block, &seeing);
+      for (ceres::ResidualBlockId id : seeing) {
+        residual_blocks.push_back(id);
+        cluster_of_block.push_back(clusters);
+      }
+      ++clusters;
+    }
+  }
+  std::vector<ceres::ResidualBlockId> all;
+  solved.problem.GetResidualBlocks(&all);
+  for (ceres::ResidualBlockId id : all) {
+    if (std::find(residual_blocks.begin(), residual_blocks.end(), id) == residual_blocks.end()) {
+      residual_blocks.push_back(id);
+      cluster_of_block.push_back(-1);
+    }
+  }
+  ceres::Problem::EvaluateOptions evaluate;
+  evaluate.parameter_blocks = blocks;
+  evaluate.residual_blocks = residual_blocks;
+  std::vector<double> residuals;
+  ceres::CRSMatrix crs;
+  ASSERT_TRUE(solved.problem.Evaluate(evaluate, nullptr, &residuals, nullptr, &crs));
+  Eigen::MatrixXd jacobian = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+  for (int row = 0; row < crs.num_rows; ++row) {
+    for (int k = crs.rows[row]; k < crs.rows[row + 1]; ++k) {
+      jacobian(row, crs.cols[k]) = crs.values[k];
+    }
+  }
+  const Eigen::Map<const Eigen::VectorXd> r(residuals.data(), Eigen::Index(residuals.size()));
+  std::vector<Eigen::VectorXd> gradients(clusters, Eigen::VectorXd::Zero(crs.num_cols));
+  int row = 0;
+  for (size_t b = 0; b < residual_blocks.size(); ++b) {
+    const int size =
+        solved.problem.GetCostFunctionForResidualBlock(residual_blocks[b])->num_residuals();
+    for (int i = 0; i < size; ++i, ++row) {
+      const Eigen::VectorXd g = jacobian.row(row).transpose() * r(row);
+      if (cluster_of_block[b] >= 0) {
+        gradients[cluster_of_block[b]] += g;
+      } else {
+        gradients.push_back(g);
+      }
+    }
+  }
+  ASSERT_EQ(row, crs.num_rows);
+  Eigen::MatrixXd scatter = Eigen::MatrixXd::Zero(crs.num_cols, crs.num_cols);
+  for (const Eigen::VectorXd& g : gradients) scatter += g * g.transpose();
+  const Eigen::MatrixXd inverse = (jacobian.transpose() * jacobian).inverse();
+  const int free = int(ours.rows());
+  ASSERT_EQ(free, 6);
+  const Eigen::MatrixXd rows = inverse.bottomRows(free);
+  const double n = double(gradients.size());
+  const Eigen::MatrixXd theirs = rows * scatter * rows.transpose() * n / (n - 1.0);
+  for (int a = 0; a < free; ++a) {
+    for (int b = 0; b < free; ++b) {
+      EXPECT_NEAR(ours(a, b), theirs(a, b), 1e-6 * std::sqrt(theirs(a, a) * theirs(b, b)))
+          << "entry (" << a << ", " << b << ")";
+    }
+  }
+}
+
+// Where each point's error carries over from view to view (a random walk, as Lucas-Kanade's
+// drift), the clustered sigma of fx is what fx scatters by over many draws of the noise,
+// and the sigma that takes the views for independent is too small.
+TEST(PlumbLine, ClusteredSigmaIsWhatTheFocalLengthScattersByWhenTracksDrift) {
+  const CameraIntrinsics truth = test::SonnarLikeCamera(-0.2, 0.05);
+  cv::RNG rng(7);
+  constexpr int kDraws = 80;
+  // A sweep of 15 views, turning on two axes by 2 deg a view.
+  std::vector<Eigen::Vector3d> sweep;
+  for (int view = 1; view < 20; ++view) {
+    sweep.push_back(Eigen::Vector3d(0.0225, -0.015, 0.004) * view);
+  }
+  double sum_sq_error = 0.0, sum_clustered = 0.0, sum_independent = 0.0;
+  for (int draw = 0; draw < kDraws; ++draw) {
+    std::vector<Eigen::Vector2d> drift;
+    PlaneSeenFromViews solved(
+        truth, rng,
+        [&](int point, int view) {
+          if (view == 0) drift.emplace_back(0.0, 0.0);
+          drift[point] += Eigen::Vector2d(rng.gaussian(0.1), rng.gaussian(0.1));
+          return drift[point];
+        },
+        sweep);
+    ASSERT_TRUE(solved.summary.IsSolutionUsable()) << solved.summary.BriefReport();
+    Eigen::MatrixXd clustered;
+    const std::optional<Eigen::MatrixXd> unit =
+        MarginalCovariance(&solved.problem, *solved.ordering, solved.intrinsics, &clustered);
+    ASSERT_TRUE(unit.has_value());
+    // The independent sigma as box 10 used to scale it: by the residuals' RMS.
+    const double rms_sq = 2.0 * solved.summary.final_cost / solved.summary.num_residuals;
+    sum_sq_error += std::pow(solved.intrinsics[kFx] - truth.fx, 2);
+    sum_clustered += clustered(0, 0);
+    sum_independent += rms_sq * (*unit)(0, 0);
+  }
+  const double scatter = std::sqrt(sum_sq_error / kDraws);
+  const double clustered = std::sqrt(sum_clustered / kDraws);
+  const double independent = std::sqrt(sum_independent / kDraws);
+  EXPECT_NEAR(clustered / scatter, 1.0, 0.3)
+      << "scatter " << scatter << " px, clustered " << clustered << " px";
+  EXPECT_LT(independent / scatter, 0.65)
+      << "scatter " << scatter << " px, independent " << independent << " px";
 }
 
 // The residual runs from the observed pixel to the nearest point of the line's image: as
