@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "pipeline/error.h"
 
@@ -121,6 +122,8 @@ bool AcceptanceOptions::Check(std::string* error) const {
     why << "order_evidence_chi2 must not be negative";
   } else if (!(max_extrapolation_s >= 0)) {
     why << "max_extrapolation_s must not be negative";
+  } else if (!(attempt_window_s >= 0)) {
+    why << "attempt_window_s must not be negative";
   } else if (alarm_after < 1) {
     why << "alarm_after must be at least 1";
   } else if (confirm_after < std::max(2, alarm_after)) {
@@ -212,6 +215,12 @@ CalibrationHistory::CalibrationHistory(const CameraIntrinsics& premission,
   anchor_.estimate = premission;
   anchor_.covariance = Eigen::MatrixXd::Zero(kNumIntrinsics, kNumIntrinsics);
   for (int p = 0; p < kNumIntrinsics; ++p) anchor_.free_parameters.push_back(p);
+}
+
+Matrix9d CalibrationHistory::InflatedRoot(const AttemptRecord& attempt) const {
+  const Eigen::SelfAdjointEigenSolver<Matrix9d> eigen(InflatedCovariance(attempt));
+  return eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
+         eigen.eigenvectors().transpose();
 }
 
 Matrix9d CalibrationHistory::InflatedCovariance(const AttemptRecord& attempt) const {
@@ -375,10 +384,29 @@ FilteredCalibration CalibrationHistory::Evaluate(int regime, int64_t t_ns) const
     scale(p) = std::sqrt(fit.dof > 0 ? std::max(1.0, fit.chi2 / fit.dof) : 1.0);
     out.order = std::max(out.order, used);
   }
+  // Overlapping windows share views, and a track's errors with them: attempts t apart are
+  // taken as correlated by 1 - t / window (the share of views in common), each pair's
+  // cross-covariance the product of their covariances' square roots so weighted. Taken as
+  // independent, the output's sigma of a steady lens was half its error.
+  std::vector<Matrix9d> weighted_root(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Matrix9d root = points[i] == &anchor_ ? InflatedRoot(anchor_)
+                                                : inflated_roots_[points[i] - attempts_.data()];
+    weighted_root[i] = influence.row(i).transpose().asDiagonal() * root;
+  }
+  const double attempt_window_ns = options_.attempt_window_s * 1e9;
   Matrix9d covariance = Matrix9d::Zero();
   for (size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Matrix<double, kNumIntrinsics, 1> a = influence.row(i).transpose();
-    covariance += a.asDiagonal() * inflated[i] * a.asDiagonal();
+    covariance += weighted_root[i] * weighted_root[i].transpose();
+    if (points[i] == &anchor_) continue;
+    for (size_t j = i + 1; j < points.size(); ++j) {
+      if (points[j] == &anchor_) continue;
+      const double apart = std::abs(double(points[j]->t_ns - points[i]->t_ns));
+      if (apart >= attempt_window_ns) continue;
+      const Matrix9d cross =
+          (1.0 - apart / attempt_window_ns) * weighted_root[i] * weighted_root[j].transpose();
+      covariance += cross + cross.transpose();
+    }
   }
   out.covariance = scale.asDiagonal() * covariance * scale.asDiagonal();
   out.calibration = CameraIntrinsics::FromPacked(value, premission_.width, premission_.height);
@@ -471,6 +499,7 @@ Verdict CalibrationHistory::Judge(int64_t t_ns, const SelfCalibrationResult& res
   const FilteredCalibration trend = Evaluate(record.regime, t_ns);
   record.trend = trend.calibration.Packed();
   attempts_.push_back(record);
+  inflated_roots_.push_back(InflatedRoot(record));
   AttemptRecord& judged = attempts_.back();
 
   if (!result.usable) {

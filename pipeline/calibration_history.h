@@ -40,6 +40,10 @@ struct AcceptanceOptions {
   // (scaled by the scatter left), so noise is averaged rather than followed.
   double order_evidence_chi2 = 9.0;
   double max_extrapolation_s = 10.0;  // The trend is held this long after its newest attempt.
+  // How long each attempt's material spans (the pipeline sets it to material.window_s).
+  // Attempts closer than this share views, and the output's covariance takes their errors
+  // as correlated by the share of the window they have in common; 0: as independent.
+  double attempt_window_s = 2.0;
   // Consecutive mutually consistent attempts off the trend that raise a jump alarm, and
   // that confirm it and start a new regime. Windows overlap (2 s, one every 0.5 s): two
   // attempts in a row share three quarters of their material, and with 2 a steady lens
@@ -172,6 +176,10 @@ class CalibrationHistory {
   // An attempt's covariance over all parameters, with the floors on the diagonal.
   Eigen::Matrix<double, kNumIntrinsics, kNumIntrinsics> InflatedCovariance(
       const AttemptRecord& attempt) const;
+  // Its symmetric square root, kept for each attempt as it is judged (the trend pairs every
+  // point with its neighbours each time it is evaluated).
+  Eigen::Matrix<double, kNumIntrinsics, kNumIntrinsics> InflatedRoot(
+      const AttemptRecord& attempt) const;
 
   CameraIntrinsics premission_;
   AcceptanceOptions options_;
@@ -182,6 +190,7 @@ class CalibrationHistory {
   std::array<double, kNumIntrinsics> parameter_floor_{};
 
   std::vector<AttemptRecord> attempts_;
+  std::vector<Eigen::Matrix<double, kNumIntrinsics, kNumIntrinsics>> inflated_roots_;
   std::vector<Alarm> alarms_;
   std::vector<Regime> regimes_;
   // The pre-mission calibration as the first point of the first regime, at its start, as

@@ -23,6 +23,13 @@ bool EstimatesDistortion(const AttemptRecord& record) {
          record.free_parameters.end();
 }
 
+// The history told how long box 9's windows are: attempts closer than that share views.
+AcceptanceOptions AcceptanceFor(const PipelineOptions& options) {
+  AcceptanceOptions acceptance = options.acceptance;
+  acceptance.attempt_window_s = options.material.window_s;
+  return acceptance;
+}
+
 }  // namespace
 
 bool PipelineOptions::Check(std::string* error) const {
@@ -84,7 +91,7 @@ MotionHalf::MotionHalf(const CameraIntrinsics& premission, const AccelCalibratio
       motion_(options.motion),
       inertial_(accel, options.inertial),
       material_(options.material),
-      history_(premission, options.acceptance),
+      history_(premission, AcceptanceFor(options)),
       quality_gate_(options.material.quality) {
   std::string why;
   if (!options.Check(&why)) throw Error("pipeline options: " + why);

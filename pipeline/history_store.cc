@@ -165,6 +165,7 @@ void ForEachOption(Options& o, Visit visit) {
   visit("min_points_quadratic", o.min_points_quadratic);
   visit("order_evidence_chi2", o.order_evidence_chi2);
   visit("max_extrapolation_s", o.max_extrapolation_s);
+  visit("attempt_window_s", o.attempt_window_s);
   visit("alarm_after", o.alarm_after);
   visit("confirm_after", o.confirm_after);
 }

@@ -579,6 +579,10 @@ std::vector<OptionField> MakeFields() {
       Field<double>("acceptance.max_extrapolation_s", 0, kUnbounded,
                     "the trend is held this long after its newest attempt (s)", &P::acceptance,
                     &A::max_extrapolation_s),
+      Field<double>("acceptance.attempt_window_s", 0, kUnbounded,
+                    "attempts closer than this share views, in the output's covariance (s; a "
+                    "run takes material.window_s, this serves a history judged on its own)",
+                    &P::acceptance, &A::attempt_window_s),
       Field<int>("acceptance.alarm_after", 1, 100,
                  "consistent attempts off the trend that raise a jump alarm", &P::acceptance,
                  &A::alarm_after),

@@ -162,6 +162,56 @@ TEST(CalibrationHistoryTest, GradualDriftIsFollowed) {
   EXPECT_GE(history.Current(60 * kSecond).order, 1) << "a drift needs more than a constant";
 }
 
+// Box 10's windows overlap (2 s, one every 0.5 s): each attempt's fx error is the mean of
+// its four half-seconds' errors, and neighbours share them. The RMS over 300 walks of a
+// steady lens (30 s each) of the output's fx error at the end over the output's own sigma.
+// The trend spans 20 s, so the pre-mission calibration (as certain as the floors) has left
+// it by then.
+double OutputFocalZRms(double attempt_window_s) {
+  const CameraIntrinsics truth = test::SonnarLikeCamera();
+  AcceptanceOptions options;
+  options.attempt_window_s = attempt_window_s;
+  options.window_s = 20.0;
+  options.focal_floor_fraction = 1e-9;  // The attempts' sigmas are the truth here.
+  const double sigma = 0.002 * truth.fx;
+  std::mt19937 random(11);
+  std::normal_distribution<double> half_second(0.0, 2.0 * sigma);  // Four average to sigma.
+  double sum_sq = 0.0;
+  constexpr int kWalks = 300;
+  for (int walk = 0; walk < kWalks; ++walk) {
+    CalibrationHistory history(truth, options);
+    std::vector<double> errors;
+    int64_t t = 0;
+    for (int step = 1; step <= 60; ++step) {
+      errors.push_back(half_second(random));
+      t = step * kSecond / 2;
+      if (errors.size() < 4) continue;
+      SelfCalibrationResult r;
+      r.usable = true;
+      r.estimate = truth;
+      r.estimate.fx += (errors[errors.size() - 1] + errors[errors.size() - 2] +
+                        errors[errors.size() - 3] + errors[errors.size() - 4]) /
+                       4.0;
+      r.covariance = Eigen::MatrixXd::Constant(1, 1, sigma * sigma);
+      r.free_parameters = {kFx};
+      r.rms_px = 0.3;
+      history.Judge(t, r);
+    }
+    const FilteredCalibration out = history.Current(t);
+    sum_sq += std::pow((out.calibration.fx - truth.fx), 2) / out.covariance(kFx, kFx);
+  }
+  return std::sqrt(sum_sq / kWalks);
+}
+
+TEST(CalibrationHistoryTest, OutputSigmaCountsOverlappingWindowsOnce) {
+  const double overlapping = OutputFocalZRms(2.0);
+  const double independent = OutputFocalZRms(0.0);
+  std::printf("output fx error over its sigma (RMS): %.2f, %.2f taking attempts as independent\n",
+              overlapping, independent);
+  EXPECT_NEAR(overlapping, 1.0, 0.2);
+  EXPECT_GT(independent, 1.5);
+}
+
 // At 30 s fx and fy drop 2% and cx moves +5 px, and stay (a knock): an alarm within 3 s,
 // a new regime, and the output back on the truth within 10 s.
 TEST(CalibrationHistoryTest, PersistentJumpRaisesAlarmAndStartsNewRegime) {
