@@ -997,9 +997,17 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
         << material.frame_count - 1 - worst->first << " frames before the window's last)";
     return no_update(why.str());
   }
-  result.frames_used = int(posed.size());
+  // Only views the points left in still place: one that saw only a plane left out kept
+  // whatever pose the first pass had wandered to (thousands of units off, a garbage view
+  // in the workbench's 3D scene and in the next attempt's start).
+  std::set<int> placed;
+  for (const Residual& r : residuals) {
+    placed.insert(r.frame);
+    placed.insert(plane_reference[r.plane]);
+  }
+  result.frames_used = int(placed.size());
   result.cam_from_world.resize(material.frame_count);
-  for (int f : posed) result.cam_from_world[f] = ToIsometry(frame_poses[f]);
+  for (int f : placed) result.cam_from_world[f] = ToIsometry(frame_poses[f]);
   for (size_t p = 0; p < tracks.size(); ++p) {
     if (!plane_blocks[p] || !problem.HasParameterBlock(plane_blocks[p])) continue;
     const Eigen::Isometry3d world_from_reference =
