@@ -125,6 +125,17 @@ TEST(PlumbLine, FreesTangentialK3AndTheCentreWhenAsked) {
   EXPECT_GT(MaxDistortionDifference(radial_only.estimate, truth, 0.9), 1.0);
 }
 
+// Every entry within 1e-6 of the geometric mean of the two sigmas it pairs.
+void ExpectCovariancesMatch(const Eigen::MatrixXd& ours, const Eigen::MatrixXd& theirs) {
+  ASSERT_EQ(ours.rows(), theirs.rows());
+  for (int a = 0; a < ours.rows(); ++a) {
+    for (int b = 0; b < ours.cols(); ++b) {
+      EXPECT_NEAR(ours(a, b), theirs(a, b), 1e-6 * std::sqrt(theirs(a, a) * theirs(b, b)))
+          << "entry (" << a << ", " << b << ")";
+    }
+  }
+}
+
 // `ours` against Ceres' covariance of the intrinsics by dense SVD of the whole Jacobian,
 // entry by entry to 1e-6 of the entries' standard deviations.
 void ExpectCovarianceMatchesCeresDenseSvd(ceres::Problem* problem, const double* intrinsics,
@@ -136,12 +147,7 @@ void ExpectCovarianceMatchesCeresDenseSvd(ceres::Problem* problem, const double*
   ASSERT_TRUE(covariance.Compute(block, problem));
   Eigen::MatrixXd theirs(ours.rows(), ours.cols());
   covariance.GetCovarianceBlockInTangentSpace(intrinsics, intrinsics, theirs.data());
-  for (int a = 0; a < ours.rows(); ++a) {
-    for (int b = 0; b < ours.cols(); ++b) {
-      EXPECT_NEAR(ours(a, b), theirs(a, b), 1e-6 * std::sqrt(theirs(a, a) * theirs(b, b)))
-          << "entry (" << a << ", " << b << ")";
-    }
-  }
+  ExpectCovariancesMatch(ours, theirs);
 }
 
 // The Schur-complement covariance against Ceres' own, by dense SVD of the whole Jacobian,
@@ -360,13 +366,7 @@ TEST(PlumbLine, ClusteredCovarianceAgreesWithTheWholeSandwich) {
   ASSERT_EQ(free, 6);
   const Eigen::MatrixXd rows = inverse.bottomRows(free);
   const double n = double(gradients.size());
-  const Eigen::MatrixXd theirs = rows * scatter * rows.transpose() * n / (n - 1.0);
-  for (int a = 0; a < free; ++a) {
-    for (int b = 0; b < free; ++b) {
-      EXPECT_NEAR(ours(a, b), theirs(a, b), 1e-6 * std::sqrt(theirs(a, a) * theirs(b, b)))
-          << "entry (" << a << ", " << b << ")";
-    }
-  }
+  ExpectCovariancesMatch(ours, rows * scatter * rows.transpose() * n / (n - 1.0));
 }
 
 // Where each point's error carries over from view to view (a random walk, as Lucas-Kanade's
