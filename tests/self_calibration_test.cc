@@ -264,6 +264,39 @@ TEST(SelfCalibration, WarmStartFromAnOverlappingWindowEndsWhereAColdStartDoes) {
   EXPECT_EQ(ignored.iterations, cold.iterations);
 }
 
+// A view new to a window started from the previous solution is placed by PnP on the points
+// that solution gives, and only if most of them agree on its pose: one whose tracks mostly
+// slipped (in a shake, say) would be placed by the few that still fit, or by any few that
+// happen to.
+TEST(SelfCalibration, ANewViewMostOfWhosePointsDisagreeIsNotPlaced) {
+  OverlappingWindows windows;
+  ASSERT_TRUE(windows.solved.usable) << windows.solved.reason;
+  CalibrationMaterial second = windows.second;
+  second.start = windows.start;
+  const int shaken = OverlappingWindows::kFrames - 3;  // Not in the first window.
+  // Moves `of_three` of every three of the view's tracks by up to 20 px.
+  const auto slip = [&](int of_three) {
+    CalibrationMaterial slipped = second;
+    int seen = 0;
+    for (PlaneTrack& plane : slipped.planes) {
+      for (PlaneObservation& o : plane.observations) {
+        if (o.frame != shaken || seen++ % 3 >= of_three) continue;
+        o.pixel +=
+            Eigen::Vector2d(windows.rng.uniform(-20.0, 20.0), windows.rng.uniform(-20.0, 20.0));
+      }
+    }
+    return slipped;
+  };
+  const SelfCalibrationResult third_slipped = SelfCalibrate(slip(1), WrongStart(), {});
+  const SelfCalibrationResult two_thirds_slipped = SelfCalibrate(slip(2), WrongStart(), {});
+  ASSERT_TRUE(third_slipped.usable) << third_slipped.reason;
+  ASSERT_TRUE(two_thirds_slipped.usable) << two_thirds_slipped.reason;
+  EXPECT_TRUE(third_slipped.cam_from_world[shaken].has_value()) << "most of its tracks agree";
+  EXPECT_FALSE(two_thirds_slipped.cam_from_world[shaken].has_value());
+  EXPECT_TRUE(two_thirds_slipped.cam_from_world[shaken - 1].has_value());
+  EXPECT_NEAR(two_thirds_slipped.estimate.fx / windows.truth.fx, 1.0, 0.005);
+}
+
 // From the previous solution the first pass only has to tell the points that fit badly
 // apart: cut to one iteration or run to its 1% tolerance, the window ends at the same
 // minimum. The start's focal length is 3% off, as after a knock, so that the first pass
