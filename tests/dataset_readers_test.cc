@@ -20,8 +20,6 @@
 #include "pipeline/error.h"
 #include "tests/test_util.h"
 
-#define EXPECT_CONTAINS(text, part) EXPECT_PRED_FORMAT2(::testing::IsSubstring, part, text)
-
 namespace autocal {
 namespace {
 

@@ -12,8 +12,6 @@
 #include "devices/recording_writer.h"
 #include "tests/test_util.h"
 
-#define EXPECT_CONTAINS(text, part) EXPECT_PRED_FORMAT2(::testing::IsSubstring, part, text)
-
 namespace autocal {
 namespace {
 

@@ -23,8 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-#define EXPECT_CONTAINS(text, part) EXPECT_PRED_FORMAT2(::testing::IsSubstring, part, text)
-
 constexpr int64_t kT0 = 1'700'000'000'123'456'789;  // Beyond what a double holds exactly.
 constexpr int64_t kFrameStep = 33'333'333;
 constexpr int64_t kAccelStep = 1'250'000;  // 800 Hz.

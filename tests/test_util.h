@@ -11,6 +11,9 @@
 
 #include "pipeline/camera_model.h"
 
+// Fails the test, and goes on, unless the string `text` contains `part` (both printed).
+#define EXPECT_CONTAINS(text, part) EXPECT_PRED_FORMAT2(::testing::IsSubstring, part, text)
+
 namespace autocal::test {
 
 // A fresh empty folder for this test, removed when the object goes out of scope.
