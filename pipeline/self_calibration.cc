@@ -272,12 +272,12 @@ void Triangulate(const std::vector<Tracks>& planes, Structure* s) {
 
 // Frames without a pose placed by PnP on the points known so far.
 // From an earlier solution those points are as good as the tracks: a view is placed only
-// if at least half of them agree on its pose (within 0.005 in normalized coordinates,
-// 1-2 px), as one placed by a few had any pose, and solves started from it came apart or
-// crawled. Samples of 4 (AP3P) make that cheap: 100 draws find one clean of a half that
-// disagree 99.8% of the time (OpenCV's default, EPnP on 5 over 200 draws, spent a quarter
-// of box 10's time on such views). The pose is then solved again on the consensus
-// (SOLVEPNP_ITERATIVE); refined from AP3P's, solves came apart.
+// if at least half of them agree on its pose (within 0.005 in normalized coordinates, a
+// pixel at 320x240), as one placed by a few had any pose, and solves started from it
+// came apart or crawled. Samples of 4 (AP3P) make that cheap: 100 draws find one clean of
+// a half that disagree 99.8% of the time (OpenCV's default, EPnP on 5 over 200 draws,
+// spent a quarter of box 10's time on such views). The pose is then solved again on the
+// consensus (SOLVEPNP_ITERATIVE); refined from AP3P's, solves came apart.
 // From the homographies the points are rough (5-35 px), the agreeing few are all there
 // is, and OpenCV's default places the view on them for the solve to put right (AP3P's
 // poses on so few put a view 100 px off).
@@ -286,6 +286,7 @@ void PlaceByPnp(const std::vector<Tracks>& planes, Structure* s) {
   const int draws = known_well ? 100 : 200;
   const int kernel = known_well ? cv::SOLVEPNP_AP3P : cv::SOLVEPNP_ITERATIVE;
   constexpr double kThreshold = 0.005, kConfidence = 0.99;
+  const cv::Mat normalized = cv::Mat::eye(3, 3, CV_64F);
   for (size_t frame = 0; frame < s->cam_from_world.size(); ++frame) {
     if (s->cam_from_world[frame]) continue;
     std::vector<cv::Point3d> object;
@@ -300,7 +301,6 @@ void PlaceByPnp(const std::vector<Tracks>& planes, Structure* s) {
       }
     }
     if (object.size() < 8) continue;
-    const cv::Mat normalized = cv::Mat::eye(3, 3, CV_64F);
     cv::Mat rvec, tvec;
     std::vector<int> consensus;
     if (!cv::solvePnPRansac(object, image, normalized, cv::noArray(), rvec, tvec, false, draws,
