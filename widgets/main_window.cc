@@ -183,10 +183,12 @@ void MainWindow::createActions() {
   // Playing at the recording's pace and following the pipeline exclude each other.
   connect(follow_action_, &QAction::toggled, this, [this](bool on) {
     if (!on) return;
+    play_on_first_frame_ = false;
     playback_->pause();
     if (pipeline_->framesDone() > 0 && !live_) playback_->seekToIndex(pipeline_->framesDone() - 1);
   });
   connect(playback_, &PlaybackController::playingChanged, this, [this](bool playing) {
+    play_on_first_frame_ = false;  // Played or paused by hand before the first picture.
     if (playing) follow_action_->setChecked(false);
   });
   for (QAction* action : {play_action_, step_back_action_, step_forward_action_, start_action_,
@@ -400,6 +402,7 @@ void MainWindow::createPipelineDocks() {
   devices_dock->hide();  // View › Devices.
   view_menu_->insertAction(view_menu_->actions().at(6), devices_dock->toggleViewAction());
   connect(session, &LiveSession::connected, this, [this](const QString& description) {
+    play_on_first_frame_ = false;
     playback_->pause();
     live_ = true;
     log(tr("Live: %1").arg(description));
@@ -550,10 +553,7 @@ void MainWindow::connectControllers() {
   connect(loader_, &FrameLoader::frameReady, this, [this](int index, const QImage& image) {
     if (live_) return;  // The live source's frames are on screen.
     video_->setFrame(index, image);
-    if (start_pipeline_on_frame_) {
-      start_pipeline_on_frame_ = false;
-      pipeline_->start(sequence_);
-    }
+    if (awaiting_first_frame_) onFirstFrameSettled();
     pipeline_->setCurrentFrame(index, image);
     emit frameShown(index);
   });
@@ -605,6 +605,7 @@ void MainWindow::connectControllers() {
   rate_clock_.start();
   connect(loader_, &FrameLoader::frameFailed, this, [this](int index, const QString& message) {
     log(tr("Frame %1 could not be read: %2").arg(index).arg(message), true);
+    if (awaiting_first_frame_) onFirstFrameSettled();
   });
 
   connect(slider_, &QSlider::valueChanged, playback_, &PlaybackController::seekToIndex);
@@ -705,11 +706,21 @@ void MainWindow::onOpened(const QString& source, std::shared_ptr<const Sequence>
   }
   if (count == 0) video_->showMessage(tr("%1 has no frames.").arg(description));
   takeRecordingsShutter(seq.session());
-  // The run starts once the first frame is on screen: the picture comes first.
+  // The run and the playback start once the first frame is on screen: the picture comes
+  // first, and a slow first decode (the simulator builds its scene then) skips no frames.
   pipeline_->start(nullptr);
-  start_pipeline_on_frame_ = true;
+  awaiting_first_frame_ = true;
+  play_on_first_frame_ = !follow_action_->isChecked();  // Following, it goes with the run.
   emit opened(source);
-  if (!follow_action_->isChecked()) playback_->play();  // Following, it goes with the run.
+}
+
+void MainWindow::onFirstFrameSettled() {
+  awaiting_first_frame_ = false;
+  pipeline_->start(sequence_);
+  if (play_on_first_frame_) {
+    play_on_first_frame_ = false;
+    playback_->play();
+  }
 }
 
 void MainWindow::takeRecordingsShutter(const SessionInfo& session) {
@@ -1005,7 +1016,7 @@ bool MainWindow::setPremissionFile(const QString& path) {
     log(tr("Pre-mission calibration: each source's own"));
   }
   // The run so far started from the other calibration.
-  if (sequence_ && !start_pipeline_on_frame_) pipeline_->start(sequence_);
+  if (sequence_ && !awaiting_first_frame_) pipeline_->start(sequence_);
   return true;
 }
 

@@ -129,6 +129,7 @@ class MainWindow : public QMainWindow {
   // The settings take the rolling shutter the recording's camera states, as `autocal run`
   // does; a readout the last recording set goes with it.
   void takeRecordingsShutter(const SessionInfo& session);
+  void onFirstFrameSettled();
   void onOpenFailed(const QString& source, const QString& message);
   void onHistoryOpened(const QString& path, std::shared_ptr<const CalibrationSeries> series);
   void onHistoryFailed(const QString& path, const QString& message);
@@ -205,7 +206,10 @@ class MainWindow : public QMainWindow {
   QActionGroup* view_mode_group_ = nullptr;
   // A history opened by hand stays in the docks; else they follow the pipeline's run.
   bool history_opened_by_hand_ = false;
-  bool start_pipeline_on_frame_ = false;  // A recording opened, its first frame not shown yet.
+  // A recording opened, its first frame not on screen (nor found unreadable) yet: its run,
+  // and its playback unless the user took charge meanwhile, wait for that picture.
+  bool awaiting_first_frame_ = false;
+  bool play_on_first_frame_ = false;
   double recording_readout_ms_ = 0.0;     // The readout the open recording states (0: none).
   std::shared_ptr<const FrameSnapshot> last_live_snapshot_;  // Forwarded last.
   // A live source is connected: the video shows its frames, not the recording's.

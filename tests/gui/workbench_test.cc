@@ -3,6 +3,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <memory>
 #include <set>
@@ -144,6 +145,7 @@ class WorkbenchTest : public QObject {
   void loaderDropsStaleRequests();
   void playsSeeksAndSteps();
   void opensRecordingFolder();
+  void damagedFirstFrameStillPlays();
   void badPathKeepsRecordingOpen();
   void settingsPersist();
   void screenshotIsNotBlank();
@@ -154,7 +156,9 @@ class WorkbenchTest : public QObject {
 
  private:
   // A shown main window with `source` open and its first frame on screen.
-  std::unique_ptr<MainWindow> OpenWindow(const QString& source);
+  // `before_open` may connect to the window before the source is opened.
+  std::unique_ptr<MainWindow> OpenWindow(const QString& source,
+                                         const std::function<void(MainWindow&)>& before_open = {});
   // Waits until `window` shows frame `index`, then checks its pixels against the frame.
   void ExpectShown(const MainWindow& window, int index);
 
@@ -173,7 +177,8 @@ void WorkbenchTest::initTestCase() {
 // Every test starts from the default settings.
 void WorkbenchTest::init() { QSettings().clear(); }
 
-std::unique_ptr<MainWindow> WorkbenchTest::OpenWindow(const QString& source) {
+std::unique_ptr<MainWindow> WorkbenchTest::OpenWindow(
+    const QString& source, const std::function<void(MainWindow&)>& before_open) {
   auto window = std::make_unique<MainWindow>();
   // The frames as decoded: the overlay layers on by default (gui_overlay_test) are off.
   for (const OverlayLayer layer : kAllOverlayLayers) window->overlayAction(layer)->setChecked(false);
@@ -182,6 +187,7 @@ std::unique_ptr<MainWindow> WorkbenchTest::OpenWindow(const QString& source) {
   window->activateWindow();  // Shortcuts only reach the active window.
   if (!QTest::qWaitForWindowActive(window.get())) return nullptr;
   QSignalSpy opened(window.get(), &MainWindow::opened);
+  if (before_open) before_open(*window);
   window->open(source);
   if (!opened.wait(kOpenTimeoutMs) || window->sequence() == nullptr) return nullptr;
   if (!QTest::qWaitFor([&] { return window->videoView()->frameIndex() >= 0; }, kFrameTimeoutMs)) {
@@ -397,15 +403,25 @@ void WorkbenchTest::loaderDropsStaleRequests() {
 }
 
 void WorkbenchTest::playsSeeksAndSteps() {
-  const auto window = OpenWindow(kSimSource);
+  // Opening plays, from the first picture on: the simulator builds its scene on the first
+  // frame it renders (a second or more), and no frame is played past unseen meanwhile.
+  int plays = 0, plays_unseen = 0;
+  const auto window = OpenWindow(kSimSource, [&](MainWindow& opening) {
+    connect(opening.playback(), &PlaybackController::playingChanged, this, [&](bool playing) {
+      plays += playing;
+      plays_unseen += playing && opening.videoView()->frameIndex() < 0;
+    });
+  });
   QVERIFY(window);
+  QCOMPARE(plays, 1);
+  QCOMPARE(plays_unseen, 0);
   PlaybackController& playback = *window->playback();
   AccelPlot& plot = *window->accelPlot();
   const Sequence& sequence = *window->sequence();
   QCOMPARE(playback.frameCount(), static_cast<int>(sequence.frame_count()));
   QVERIFY(sequence.frame_count() >= 60);
 
-  // Opening plays: the frame index, the shown frame and the plot's cursor all advance.
+  // The frame index, the shown frame and the plot's cursor all advance.
   QVERIFY(playback.isPlaying());
   QTRY_VERIFY_WITH_TIMEOUT(window->videoView()->frameIndex() >= 10, kFrameTimeoutMs);
   QTRY_VERIFY(plot.drawnCursorTime() > 0.3);
@@ -497,6 +513,31 @@ void WorkbenchTest::opensRecordingFolder() {
   QCOMPARE(ShownDifference(*window->videoView(), simulated->LoadFrame(static_cast<size_t>(index))),
            ShownDifference(*window->videoView(),
                            window->sequence()->LoadFrame(static_cast<size_t>(index))));
+}
+
+void WorkbenchTest::damagedFirstFrameStillPlays() {
+  QTemporaryDir dir;
+  QVERIFY(dir.isValid());
+  const QString folder = dir.filePath(QStringLiteral("recording"));
+  const auto simulated = OpenSequence(kSimSource.toStdString());
+  QVERIFY(WriteSequence(*simulated, folder.toStdString()));
+  QFile first(QStringLiteral("%1/cam0/data/%2.png").arg(folder).arg(simulated->frame_time_ns(0)));
+  QVERIFY2(first.open(QIODevice::WriteOnly | QIODevice::Truncate), qPrintable(first.fileName()));
+  first.write("not a PNG");
+  first.close();
+
+  // Playback does not wait for a picture that will never come: later frames are shown.
+  const auto window = OpenWindow(folder);
+  QVERIFY(window);
+  QVERIFY(window->playback()->isPlaying() || window->playback()->frameIndex() > 0);
+  QTRY_VERIFY(window->videoView()->frameIndex() > 0);
+  // The log says which frame could not be read, and the run, which stops at it, says so too.
+  const auto* log = window->findChild<QPlainTextEdit*>(QStringLiteral("log"));
+  QVERIFY(log);
+  QTRY_VERIFY2(log->toPlainText().contains(QStringLiteral("Frame 0 could not be read")),
+               qPrintable(log->toPlainText()));
+  QTRY_VERIFY2(log->toPlainText().contains(QStringLiteral("Pipeline not running")),
+               qPrintable(log->toPlainText()));
 }
 
 void WorkbenchTest::badPathKeepsRecordingOpen() {
