@@ -153,6 +153,7 @@ class WorkbenchTest : public QObject {
   void timingDockShowsTheRunsBoxTimes();
   void runsFromThePremissionCalibrationGiven();
   void takesTheRecordingsRollingShutter();
+  void reopeningHidesTheLastPicture();
 
  private:
   // A shown main window with `source` open and its first frame on screen.
@@ -843,6 +844,23 @@ void WorkbenchTest::timingDockShowsTheRunsBoxTimes() {
   QTest::qWait(200);
   const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
   QVERIFY(window.grab().save(QDir(dir).filePath(QStringLiteral("workbench_timing.png"))));
+}
+
+// Opening another recording: until its first frame is decoded, the view shows that it is
+// loading, not the last recording's picture under the new title.
+void WorkbenchTest::reopeningHidesTheLastPicture() {
+  const auto window = OpenWindow(kSimSource);
+  QVERIFY(window);
+  QVERIFY(window->videoView()->frameIndex() >= 0);
+  int shown_when_opened = -2;
+  connect(window.get(), &MainWindow::opened, this,
+          [&] { shown_when_opened = window->videoView()->frameIndex(); });
+  QSignalSpy opened(window.get(), &MainWindow::opened);
+  window->open(kSimSource + QStringLiteral(",seed=2"));
+  QVERIFY(opened.wait(kOpenTimeoutMs));
+  QCOMPARE(shown_when_opened, -1);
+  QTRY_VERIFY_WITH_TIMEOUT(window->videoView()->frameIndex() >= 0, kFrameTimeoutMs);
+  QVERIFY(window->sequence()->Describe().find("seed 2") != std::string::npos);
 }
 
 }  // namespace autocal
