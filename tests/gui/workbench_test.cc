@@ -94,6 +94,14 @@ int NearestFrame(const Sequence& sequence, double seconds) {
   return best;
 }
 
+// kSimSource as rendered, written as a native recording into a temporary folder.
+struct SimRecording {
+  QTemporaryDir dir;
+  QString folder = dir.filePath(QStringLiteral("recording"));
+  std::unique_ptr<Sequence> simulated = OpenSequence(kSimSource.toStdString());
+  bool written = dir.isValid() && WriteSequence(*simulated, folder.toStdString());
+};
+
 // Frames whose red channel is their index, slow to decode; counts the decodes. Frame 7
 // cannot be read.
 class SlowSequence : public Sequence {
@@ -495,11 +503,10 @@ void WorkbenchTest::playsSeeksAndSteps() {
 }
 
 void WorkbenchTest::opensRecordingFolder() {
-  QTemporaryDir dir;
-  QVERIFY(dir.isValid());
-  const QString folder = dir.filePath(QStringLiteral("recording"));
-  const auto simulated = OpenSequence(kSimSource.toStdString());
-  QVERIFY(WriteSequence(*simulated, folder.toStdString()));
+  const SimRecording recording;
+  QVERIFY(recording.written);
+  const QString& folder = recording.folder;
+  const Sequence* simulated = recording.simulated.get();
 
   const auto window = OpenWindow(folder);
   QVERIFY(window);
@@ -517,11 +524,10 @@ void WorkbenchTest::opensRecordingFolder() {
 }
 
 void WorkbenchTest::damagedFirstFrameStillPlays() {
-  QTemporaryDir dir;
-  QVERIFY(dir.isValid());
-  const QString folder = dir.filePath(QStringLiteral("recording"));
-  const auto simulated = OpenSequence(kSimSource.toStdString());
-  QVERIFY(WriteSequence(*simulated, folder.toStdString()));
+  const SimRecording recording;
+  QVERIFY(recording.written);
+  const QString& folder = recording.folder;
+  const Sequence* simulated = recording.simulated.get();
   QFile first(QStringLiteral("%1/cam0/data/%2.png").arg(folder).arg(simulated->frame_time_ns(0)));
   QVERIFY2(first.open(QIODevice::WriteOnly | QIODevice::Truncate), qPrintable(first.fileName()));
   first.write("not a PNG");
@@ -606,11 +612,10 @@ void WorkbenchTest::takesTheRecordingsRollingShutter() {
 
 void WorkbenchTest::runsFromThePremissionCalibrationGiven() {
   // A recording without a pre-mission calibration, as a video with its CSV would be.
-  QTemporaryDir dir;
-  QVERIFY(dir.isValid());
-  const QString folder = dir.filePath(QStringLiteral("walk"));
-  const auto simulated = OpenSequence(kSimSource.toStdString());
-  QVERIFY(WriteSequence(*simulated, folder.toStdString()));
+  const SimRecording recording;
+  QVERIFY(recording.written);
+  const QString& folder = recording.folder;
+  const QTemporaryDir& dir = recording.dir;
   const std::string session_file = (folder + QStringLiteral("/session.json")).toStdString();
   SessionInfo session = ReadSessionFile(session_file);
   const CameraIntrinsics own = *session.premission_calibration;
@@ -673,10 +678,9 @@ void WorkbenchTest::runsFromThePremissionCalibrationGiven() {
 }
 
 void WorkbenchTest::settingsPersist() {
-  QTemporaryDir dir;
-  QVERIFY(dir.isValid());
-  const QString folder = dir.filePath(QStringLiteral("walk"));
-  QVERIFY(WriteSequence(*OpenSequence(kSimSource.toStdString()), folder.toStdString()));
+  const SimRecording recording;
+  QVERIFY(recording.written);
+  const QString& folder = recording.folder;
   {
     const auto window = OpenWindow(folder);
     QVERIFY(window);
