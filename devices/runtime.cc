@@ -47,7 +47,9 @@ Runtime::Runtime(const CameraIntrinsics& premission, const AccelCalibration& acc
       lens_(pipeline),
       motion_(premission, accel, pipeline),
       input_(options.frame_queue),
-      between_(options.lens_queue) {
+      between_(options.live ? options.lens_queue
+                            : std::max(options.lens_queue,
+                                       static_cast<size_t>(options.calibration_lag_frames))) {
   newest_state_ = motion_.state();
   lens_thread_ = std::thread(&Runtime::LensLoop, this);
   motion_thread_ = std::thread(&Runtime::MotionLoop, this);

@@ -105,7 +105,11 @@ struct RuntimeOptions {
   // timing, so that two runs give the same results.
   bool live = false;
   size_t frame_queue = 4;  // Frames waiting for boxes 1-3 (live: the oldest dropped beyond).
-  size_t lens_queue = 2;   // Frames done by boxes 1-3 waiting for boxes 4-9.
+  // Live: frames done by boxes 1-3 waiting for boxes 4-9 (each one waiting adds a frame
+  // interval to the latency). Offline the queue holds at least calibration_lag_frames, so
+  // that the lag alone says how far ahead boxes 1-3 run: with 2, they stalled on the full
+  // queue 3 frames ahead while a core stood idle (bench/README.md, session 37).
+  size_t lens_queue = 2;
   // Offline: an attempt made on frame i is judged on frame i + this, waiting for its solve
   // if it has not ended. Boxes 1-9 go on meanwhile, so the solve overlaps them; the
   // verdicts come that much later. 0 judges on frame i itself, as

@@ -149,6 +149,50 @@ TEST(Runtime, TwoOfflineRunsGiveTheSameSummary) {
   }
 }
 
+// Offline, boxes 1-3 run ahead of boxes 4-9 as far as calibration_lag_frames lets them,
+// not only as far as the queue between them holds in live mode: held on frame 0, boxes 4-9
+// leave boxes 1-3 frames 1-6 to do, and one more waits for frame 1's calibration.
+TEST(Runtime, OfflineBoxes1To3RunAheadAsFarAsTheLag) {
+  const std::unique_ptr<Sequence> sequence = Walk(1.0);
+  AccelCalibration accel;
+  accel.cam_from_accel = sequence->session().cam_from_accel;
+  const RuntimeOptions options;
+  ASSERT_GT(size_t(options.calibration_lag_frames), options.lens_queue);
+  std::mutex mutex;
+  std::condition_variable released_changed;
+  bool released = false;
+  Runtime runtime(*sequence->session().premission_calibration, accel, {}, options,
+                  [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+                    if (snapshot->index != 0) return;
+                    std::unique_lock lock(mutex);
+                    released_changed.wait(lock, [&] { return released; });
+                  });
+  std::atomic<int> pushed{0};
+  std::thread pusher([&] {
+    for (size_t i = 0; i < sequence->frame_count(); ++i) {
+      runtime.PushFrame(sequence->frame_time_ns(i), sequence->LoadFrame(i));
+      ++pushed;
+    }
+    runtime.Finish();
+  });
+  // Frame 0 with boxes 4-9, the lag's frames queued after it, one with boxes 1-3 waiting
+  // for its calibration, and the frame queue full: the next push waits.
+  const int expected = 1 + options.calibration_lag_frames + 1 + int(options.frame_queue);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (pushed < expected && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(pushed, expected);
+  {
+    std::lock_guard lock(mutex);
+    released = true;
+  }
+  released_changed.notify_all();
+  pusher.join();
+  EXPECT_EQ(runtime.stats().frames_done, sequence->frame_count());
+}
+
 // Offline, an attempt is judged judge_after_frames after the frame it was made on, or on
 // the frame before the next attempt is due if that comes sooner: an attempt interval
 // shorter than the judging delay is kept, not stretched to it.
