@@ -1,14 +1,11 @@
 #include "devices/runtime.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <iterator>
 #include <utility>
 
 #include <pthread.h>
-#include <sys/resource.h>
-#include <unistd.h>
 
 #include "pipeline/error.h"
 #include "pipeline/option_fields.h"
@@ -26,23 +23,13 @@ bool RuntimeOptions::Check(std::string* error) const {
   if (judge_after_frames < 0) return fail("judge_after_frames must not be negative");
   if (calibration_lag_frames < 1) return fail("calibration_lag_frames must be at least 1");
   if (!std::isfinite(accel_time_offset_s)) return fail("accel_time_offset_s must be finite");
-  if (offline_nice < 0 || offline_nice > 19) return fail("offline_nice must be in [0, 19]");
   return true;
 }
 
 namespace {
 
-// Names the calling thread (what `top -H` and `perf` show; 15 characters at most) and
-// lowers its priority by `nicer` nice values: Linux keeps one per thread, and lowering it
-// needs no privilege. A failure costs only speed, so it is not reported.
-void SetUpThread(const char* name, int nicer) {
-  pthread_setname_np(pthread_self(), name);
-  if (nicer <= 0) return;
-  const auto thread = static_cast<id_t>(gettid());
-  errno = 0;
-  const int nice = getpriority(PRIO_PROCESS, thread);
-  if (errno == 0) setpriority(PRIO_PROCESS, thread, std::min(nice + nicer, 19));
-}
+// What `top -H`, `ps -L` and `perf` show for the calling thread (15 characters at most).
+void NameThread(const char* name) { pthread_setname_np(pthread_self(), name); }
 
 const RuntimeOptions& Checked(const RuntimeOptions& options) {
   std::string why;
@@ -211,7 +198,7 @@ CalibrationState Runtime::StateFor(int64_t frame) {
 }
 
 void Runtime::LensLoop() {
-  SetUpThread("boxes 1-3", options_.live ? 0 : options_.offline_nice);
+  NameThread("boxes 1-3");
   try {
     int64_t frame = 0;
     int64_t applied = 0;
@@ -260,7 +247,7 @@ std::optional<Runtime::Judgement> Runtime::Judge(const Pending& pending,
 }
 
 void Runtime::MotionLoop() {
-  SetUpThread("boxes 4-9", 0);
+  NameThread("boxes 4-9");
   try {
     std::optional<Pending> pending;
     std::optional<Judgement> judged_between;  // Live, while idle: for the next snapshot.
@@ -360,7 +347,7 @@ void Runtime::MotionLoop() {
 }
 
 void Runtime::SolveLoop() {
-  SetUpThread("box 10", options_.live ? 0 : options_.offline_nice);
+  NameThread("box 10");
   try {
     while (true) {
       std::unique_lock lock(solve_mutex_);

@@ -123,12 +123,6 @@ struct RuntimeOptions {
   int calibration_lag_frames = 6;
   // Added to accelerometer timestamps to put them on the camera's clock.
   double accel_time_offset_s = 0.0;
-  // Offline: boxes 1-3 and box 10's worker (and box 2's estimates, which boxes 1-3 start)
-  // run this many nice values below the caller's priority. Boxes 4-9 are the critical
-  // path, and when all three want the two cores the scheduler then lets them wait less;
-  // what each frame sees is fixed by frame counts either way. 0: all equal. Live it is
-  // not applied: box 10's solve is part of the update latency there.
-  int offline_nice = 10;
 
   bool Check(std::string* error) const;
 };
