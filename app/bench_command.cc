@@ -278,6 +278,16 @@ int Bench(const QStringList& arguments) {
     std::printf("end to end: %.1f frames/s (%.2f s wall)%s\n", report.fps, report.wall_seconds,
                 stream ? ", rendering included" : live ? ", paced by the camera" : "");
     std::printf("cores busy: %.2f on average (CPU time over wall time)\n", cores_busy);
+    // The thread nearest to the wall-clock time is what limits the frames per second.
+    std::string by_thread;
+    for (const auto& [thread, cpu_s] : report.thread_cpu_s) {
+      char part[128];
+      std::snprintf(part, sizeof part, "%s%s %.2f s (%.2f ms a frame)",
+                    by_thread.empty() ? "" : ", ", thread.c_str(), cpu_s,
+                    report.frames ? 1e3 * cpu_s / double(report.frames) : 0.0);
+      by_thread += part;
+    }
+    std::printf("CPU by thread: %s\n", by_thread.c_str());
     if (report.live) {
       std::printf("live: %llu frames delivered, %llu dropped\n",
                   static_cast<unsigned long long>(report.live->frames_received),
@@ -309,6 +319,12 @@ int Bench(const QStringList& arguments) {
       json += "  \"wall_seconds\": " + JsonNumber(report.wall_seconds) + ",\n";
       json += "  \"fps\": " + JsonNumber(report.fps) + ",\n";
       json += "  \"cores_busy\": " + JsonNumber(cores_busy) + ",\n";
+      json += "  \"thread_cpu_s\": {";
+      for (size_t i = 0; i < report.thread_cpu_s.size(); ++i) {
+        json += std::string(i ? ", " : "") + JsonString(report.thread_cpu_s[i].first) + ": " +
+                JsonNumber(report.thread_cpu_s[i].second);
+      }
+      json += "},\n";
       json += "  \"judge_after_frames\": " + std::to_string(judge_after) + ",\n";
       json += "  \"settings\": {";
       for (size_t i = 0; i < changed.size(); ++i) {

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include <pthread.h>
+#include <time.h>
 
 #include "pipeline/error.h"
 #include "pipeline/option_fields.h"
@@ -30,6 +31,13 @@ namespace {
 
 // What `top -H`, `ps -L` and `perf` show for the calling thread (15 characters at most).
 void NameThread(const char* name) { pthread_setname_np(pthread_self(), name); }
+
+// CPU time the calling thread has used.
+double ThreadCpuSeconds() {
+  timespec now{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+  return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
+}
 
 const RuntimeOptions& Checked(const RuntimeOptions& options) {
   std::string why;
@@ -212,6 +220,9 @@ void Runtime::LensLoop() {
     Fail(std::current_exception());
   }
   between_.Close();
+  const double cpu_s = ThreadCpuSeconds();
+  std::lock_guard lock(stats_mutex_);
+  stats_.lens_cpu_s = cpu_s;
 }
 
 void Runtime::FeedAccel(int64_t t_ns) {
@@ -344,6 +355,9 @@ void Runtime::MotionLoop() {
   } catch (...) {
     Fail(std::current_exception());
   }
+  const double cpu_s = ThreadCpuSeconds();
+  std::lock_guard lock(stats_mutex_);
+  stats_.motion_cpu_s = cpu_s;
 }
 
 void Runtime::SolveLoop() {
@@ -352,7 +366,7 @@ void Runtime::SolveLoop() {
     while (true) {
       std::unique_lock lock(solve_mutex_);
       solve_changed_.wait(lock, [&] { return stopping_ || solve_job_.has_value(); });
-      if (!solve_job_) return;  // Stopping with nothing to solve.
+      if (!solve_job_) break;  // Stopping with nothing to solve.
       const CalibrationJob job = std::move(*solve_job_);
       const SelfCalibrationOptions options = solve_options_;
       solve_job_.reset();
@@ -372,6 +386,9 @@ void Runtime::SolveLoop() {
   } catch (...) {
     Fail(std::current_exception());
   }
+  const double cpu_s = ThreadCpuSeconds();
+  std::lock_guard lock(stats_mutex_);
+  stats_.solve_cpu_s = cpu_s;
 }
 
 void PushSequence(const Sequence& sequence, Runtime* runtime, const std::atomic<bool>* stop) {

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <time.h>
 
 #include "devices/offline_runner.h"
 #include "devices/runtime.h"
@@ -221,6 +222,29 @@ TEST(Runtime, ThreadsAreNamedByTheirBoxes) {
   for (const char* name : {"boxes 1-3", "boxes 4-9", "box 10"}) {
     EXPECT_EQ(seen.count(name), 1u) << name;
   }
+}
+
+// Each thread's CPU time is in the stats once the run has ended: some for each, all three
+// together no more than the whole process used meanwhile.
+TEST(Runtime, EachThreadsCpuTimeIsCounted) {
+  const std::unique_ptr<Sequence> sequence = Walk(3.0);
+  AccelCalibration accel;
+  accel.cam_from_accel = sequence->session().cam_from_accel;
+  const auto process_cpu_s = [] {
+    timespec now{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
+    return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
+  };
+  const double before_s = process_cpu_s();
+  Runtime runtime(*sequence->session().premission_calibration, accel, {}, {});
+  PushSequence(*sequence, &runtime);
+  const double process_s = process_cpu_s() - before_s;
+  const RuntimeStats stats = runtime.stats();
+  ASSERT_GT(stats.solves, 0);
+  EXPECT_GT(stats.lens_cpu_s, 0.0);
+  EXPECT_GT(stats.motion_cpu_s, 0.0);
+  EXPECT_GT(stats.solve_cpu_s, 0.0);
+  EXPECT_LE(stats.lens_cpu_s + stats.motion_cpu_s + stats.solve_cpu_s, process_s);
 }
 
 // Offline, an attempt is judged judge_after_frames after the frame it was made on, or on

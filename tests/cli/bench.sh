@@ -20,6 +20,16 @@ for box in lines flow planes frame; do
 done
 awk -v fps="$(field fps "$dir/plain.json")" 'BEGIN { exit !(fps > 0) }' || fail "no frame rate"
 grep -q '^settings: the defaults$' "$dir/plain.txt" || fail "the defaults not reported"
+# Each pipeline thread's CPU time, printed and in the JSON: some, and no more than the run's
+# wall-clock time.
+wall=$(field wall_seconds "$dir/plain.json")
+for thread in "boxes 1-3" "boxes 4-9" "box 10"; do
+  cpu=$(grep -oE "\"$thread\": [0-9.e+-]+" "$dir/plain.json" | grep -oE '[0-9.e+-]+$')
+  awk -v c="$cpu" -v w="$wall" 'BEGIN { exit !(c > 0 && c <= w) }' ||
+    fail "CPU of $thread: '$cpu' s in $wall s"
+  grep -qE "^CPU by thread: .*$thread [0-9.]+ s \([0-9.]+ ms a frame\)" "$dir/plain.txt" ||
+    fail "CPU of $thread not printed: $(grep CPU "$dir/plain.txt")"
+done
 grep -q '"settings": {}' "$dir/plain.json" || fail "no settings changed in the JSON"
 
 # Box 10 tried twice as often: more attempts than with the defaults, and the change said.
