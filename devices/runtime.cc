@@ -32,13 +32,6 @@ namespace {
 // What `top -H`, `ps -L` and `perf` show for the calling thread (15 characters at most).
 void NameThread(const char* name) { pthread_setname_np(pthread_self(), name); }
 
-// CPU time the calling thread has used.
-double ThreadCpuSeconds() {
-  timespec now{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
-  return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
-}
-
 const RuntimeOptions& Checked(const RuntimeOptions& options) {
   std::string why;
   if (!options.Check(&why)) throw Error("runtime options: " + why);
@@ -220,9 +213,14 @@ void Runtime::LensLoop() {
     Fail(std::current_exception());
   }
   between_.Close();
-  const double cpu_s = ThreadCpuSeconds();
+  CountThreadCpu(&RuntimeStats::lens_cpu_s);
+}
+
+void Runtime::CountThreadCpu(double RuntimeStats::*field) {
+  timespec used{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &used);
   std::lock_guard lock(stats_mutex_);
-  stats_.lens_cpu_s = cpu_s;
+  stats_.*field = double(used.tv_sec) + 1e-9 * double(used.tv_nsec);
 }
 
 void Runtime::FeedAccel(int64_t t_ns) {
@@ -355,9 +353,7 @@ void Runtime::MotionLoop() {
   } catch (...) {
     Fail(std::current_exception());
   }
-  const double cpu_s = ThreadCpuSeconds();
-  std::lock_guard lock(stats_mutex_);
-  stats_.motion_cpu_s = cpu_s;
+  CountThreadCpu(&RuntimeStats::motion_cpu_s);
 }
 
 void Runtime::SolveLoop() {
@@ -386,9 +382,7 @@ void Runtime::SolveLoop() {
   } catch (...) {
     Fail(std::current_exception());
   }
-  const double cpu_s = ThreadCpuSeconds();
-  std::lock_guard lock(stats_mutex_);
-  stats_.solve_cpu_s = cpu_s;
+  CountThreadCpu(&RuntimeStats::solve_cpu_s);
 }
 
 void PushSequence(const Sequence& sequence, Runtime* runtime, const std::atomic<bool>* stop) {

@@ -235,6 +235,8 @@ class Runtime {
   void SolveLoop();
   CalibrationState StateFor(int64_t frame);
   void FeedAccel(int64_t t_ns);
+  // Puts the calling thread's CPU time so far in `field` of the stats (as the thread ends).
+  void CountThreadCpu(double RuntimeStats::*field);
   void Fail(std::exception_ptr error);
   // Makes every thread stop at its next wait.
   void WakeAll();
