@@ -155,9 +155,9 @@ void CompleteReport(const Runtime& runtime, FrameLog log,
   if (stats.update_latency_ms.count() > 0) {
     report->timing["update_latency"] = stats.update_latency_ms.Stats();
   }
-  report->thread_cpu_s = {{"boxes 1-3", stats.lens_cpu_s},
-                          {"boxes 4-9", stats.motion_cpu_s},
-                          {"box 10", stats.solve_cpu_s}};
+  report->thread_cpu_s = {{kLensThreadName, stats.lens_cpu_s},
+                          {kMotionThreadName, stats.motion_cpu_s},
+                          {kSolveThreadName, stats.solve_cpu_s}};
   if (truth && truth->size() == log.t_ns.size() && !truth->empty()) {
     report->truth = CompareWithTruth(log.t_ns, log.outputs, *truth, settings.convergence);
   }

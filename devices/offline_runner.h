@@ -85,8 +85,7 @@ struct RunReport {
   std::map<std::string, TimingStats> timing;
   std::optional<GroundTruthReport> truth;
   std::optional<LiveRunReport> live;  // RunSource only.
-  // CPU seconds of the runtime's threads, by name: "boxes 1-3", "boxes 4-9", "box 10"
-  // (RuntimeStats).
+  // CPU seconds of the runtime's threads, by name (kLensThreadName...; RuntimeStats).
   std::vector<std::pair<std::string, double>> thread_cpu_s;
 };
 

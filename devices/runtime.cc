@@ -29,7 +29,6 @@ bool RuntimeOptions::Check(std::string* error) const {
 
 namespace {
 
-// What `top -H`, `ps -L` and `perf` show for the calling thread (15 characters at most).
 void NameThread(const char* name) { pthread_setname_np(pthread_self(), name); }
 
 const RuntimeOptions& Checked(const RuntimeOptions& options) {
@@ -199,7 +198,7 @@ CalibrationState Runtime::StateFor(int64_t frame) {
 }
 
 void Runtime::LensLoop() {
-  NameThread("boxes 1-3");
+  NameThread(kLensThreadName);
   try {
     int64_t frame = 0;
     int64_t applied = 0;
@@ -256,7 +255,7 @@ std::optional<Runtime::Judgement> Runtime::Judge(const Pending& pending,
 }
 
 void Runtime::MotionLoop() {
-  NameThread("boxes 4-9");
+  NameThread(kMotionThreadName);
   try {
     std::optional<Pending> pending;
     std::optional<Judgement> judged_between;  // Live, while idle: for the next snapshot.
@@ -357,7 +356,7 @@ void Runtime::MotionLoop() {
 }
 
 void Runtime::SolveLoop() {
-  NameThread("box 10");
+  NameThread(kSolveThreadName);
   try {
     while (true) {
       std::unique_lock lock(solve_mutex_);

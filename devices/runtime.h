@@ -127,6 +127,11 @@ struct RuntimeOptions {
   bool Check(std::string* error) const;
 };
 
+// The threads' names, as `top -H`, `ps -L` and `perf` show them (15 characters at most).
+inline constexpr char kLensThreadName[] = "boxes 1-3";
+inline constexpr char kMotionThreadName[] = "boxes 4-9";
+inline constexpr char kSolveThreadName[] = "box 10";
+
 struct RuntimeStats {
   uint64_t frames_pushed = 0;
   uint64_t frames_dropped = 0;  // Live: frames the pipeline never started.

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -18,7 +19,6 @@
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <time.h>
 
 #include "devices/offline_runner.h"
 #include "devices/runtime.h"
@@ -66,6 +66,13 @@ TEST(RuntimeOptions, DefaultsAreValidAndBadOnesNamed) {
 std::unique_ptr<Sequence> Walk(double seconds) {
   return MakeSimulatedSequence(ParseScenarioSpec(
       "office,lens=sonnar,resolution=320x240,seconds=" + std::to_string(seconds)));
+}
+
+// The accelerometer's mounting on the camera, as the walk was recorded.
+AccelCalibration AccelOf(const Sequence& sequence) {
+  AccelCalibration accel;
+  accel.cam_from_accel = sequence.session().cam_from_accel;
+  return accel;
 }
 
 // The summary without what depends on the machine: wall-clock time, frames per second and
@@ -158,8 +165,7 @@ TEST(Runtime, TwoOfflineRunsGiveTheSameSummary) {
 // leave boxes 1-3 frames 1-6 to do, and one more waits for frame 1's calibration.
 TEST(Runtime, OfflineBoxes1To3RunAheadAsFarAsTheLag) {
   const std::unique_ptr<Sequence> sequence = Walk(1.0);
-  AccelCalibration accel;
-  accel.cam_from_accel = sequence->session().cam_from_accel;
+  const AccelCalibration accel = AccelOf(*sequence);
   const RuntimeOptions options;
   ASSERT_GT(size_t(options.calibration_lag_frames), options.lens_queue);
   std::mutex mutex;
@@ -211,15 +217,14 @@ std::set<std::string> ThreadNames() {
 // The threads say which boxes they run, for `top -H` and `perf`.
 TEST(Runtime, ThreadsAreNamedByTheirBoxes) {
   const std::unique_ptr<Sequence> sequence = Walk(1.0);
-  AccelCalibration accel;
-  accel.cam_from_accel = sequence->session().cam_from_accel;
+  const AccelCalibration accel = AccelOf(*sequence);
   std::set<std::string> seen;
   Runtime runtime(*sequence->session().premission_calibration, accel, {}, {},
                   [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
                     if (snapshot->index == 1) seen = ThreadNames();
                   });
   PushSequence(*sequence, &runtime);
-  for (const char* name : {"boxes 1-3", "boxes 4-9", "box 10"}) {
+  for (const char* name : {kLensThreadName, kMotionThreadName, kSolveThreadName}) {
     EXPECT_EQ(seen.count(name), 1u) << name;
   }
 }
@@ -228,17 +233,11 @@ TEST(Runtime, ThreadsAreNamedByTheirBoxes) {
 // together no more than the whole process used meanwhile.
 TEST(Runtime, EachThreadsCpuTimeIsCounted) {
   const std::unique_ptr<Sequence> sequence = Walk(3.0);
-  AccelCalibration accel;
-  accel.cam_from_accel = sequence->session().cam_from_accel;
-  const auto process_cpu_s = [] {
-    timespec now{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
-    return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
-  };
-  const double before_s = process_cpu_s();
+  const AccelCalibration accel = AccelOf(*sequence);
+  const std::clock_t before = std::clock();  // The whole process's CPU time.
   Runtime runtime(*sequence->session().premission_calibration, accel, {}, {});
   PushSequence(*sequence, &runtime);
-  const double process_s = process_cpu_s() - before_s;
+  const double process_s = double(std::clock() - before) / CLOCKS_PER_SEC;
   const RuntimeStats stats = runtime.stats();
   ASSERT_GT(stats.solves, 0);
   EXPECT_GT(stats.lens_cpu_s, 0.0);
@@ -253,8 +252,7 @@ TEST(Runtime, EachThreadsCpuTimeIsCounted) {
 TEST(Runtime, OfflineJudgesBeforeTheNextAttemptIsDue) {
   const std::unique_ptr<Sequence> sequence = Walk(6.0);
   const CameraIntrinsics truth = sequence->ground_truth()->front().intrinsics;
-  AccelCalibration accel;
-  accel.cam_from_accel = sequence->session().cam_from_accel;
+  const AccelCalibration accel = AccelOf(*sequence);
   std::vector<int64_t> frame_times;
   for (size_t i = 0; i < sequence->frame_count(); ++i) {
     frame_times.push_back(sequence->frame_time_ns(i));
@@ -305,8 +303,7 @@ TEST(Runtime, OfflineJudgesBeforeTheNextAttemptIsDue) {
 
 TEST(Runtime, SnapshotsAreReadWhileThePipelineRuns) {
   const std::unique_ptr<Sequence> sequence = Walk(3.0);
-  AccelCalibration accel;
-  accel.cam_from_accel = sequence->session().cam_from_accel;
+  const AccelCalibration accel = AccelOf(*sequence);
   Runtime runtime(*sequence->session().premission_calibration, accel, {}, {});
   std::atomic<bool> done{false};
   int64_t reads = 0, backwards = 0;
@@ -340,8 +337,7 @@ TEST(Runtime, LiveDropsFramesItCannotKeepUpWithAndStillCalibrates) {
   CameraIntrinsics prior = *sequence->session().premission_calibration;
   prior.fx *= 1.02;
   prior.fy *= 1.02;
-  AccelCalibration accel;
-  accel.cam_from_accel = sequence->session().cam_from_accel;
+  const AccelCalibration accel = AccelOf(*sequence);
   RuntimeOptions options;
   options.live = true;
   // Box 10's stand-in answers near the truth: what is tested is that live attempts are
@@ -387,8 +383,7 @@ TEST(Runtime, LiveDropsFramesItCannotKeepUpWithAndStillCalibrates) {
 TEST(Runtime, LiveJudgesTheMomentTheSolveEnds) {
   const std::unique_ptr<Sequence> sequence = Walk(4.0);
   const CameraIntrinsics truth = sequence->ground_truth()->front().intrinsics;
-  AccelCalibration accel;
-  accel.cam_from_accel = sequence->session().cam_from_accel;
+  const AccelCalibration accel = AccelOf(*sequence);
   RuntimeOptions options;
   options.live = true;
   std::mutex gate_mutex;
