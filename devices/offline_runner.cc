@@ -115,7 +115,7 @@ void SummarizeHistory(const CalibrationHistory& history, int64_t end_ns, RunRepo
 
 namespace {
 
-// What the runtime's frames say, gathered on its boxes 6-9 thread. Memory stays flat over
+// What the runtime's frames say, gathered on its boxes 4-9 thread. Memory stays flat over
 // a session of any length: the timings go into histograms, and each frame's output is kept
 // only where it is to be compared with the truth (whose frames are held anyway).
 struct FrameLog {
@@ -156,7 +156,6 @@ void CompleteReport(const Runtime& runtime, FrameLog log,
     report->timing["update_latency"] = stats.update_latency_ms.Stats();
   }
   report->thread_cpu_s = {{kLensThreadName, stats.lens_cpu_s},
-                          {kFlowThreadName, stats.flow_cpu_s},
                           {kMotionThreadName, stats.motion_cpu_s},
                           {kSolveThreadName, stats.solve_cpu_s}};
   if (truth && truth->size() == log.t_ns.size() && !truth->empty()) {
@@ -190,7 +189,7 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   RuntimeOptions runtime_options = settings.runtime;
   runtime_options.accel_time_offset_s = settings.accel_time_offset_s;
   std::unique_ptr<Runtime> runtime;
-  // Runs on the runtime's boxes 6-9 thread, frame after frame.
+  // Runs on the runtime's boxes 4-9 thread, frame after frame.
   const auto on_frame = [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
     log.Add(*snapshot);
     if (snapshot->attempt && store) store->Record(runtime->history());

@@ -37,33 +37,6 @@ const RuntimeOptions& Checked(const RuntimeOptions& options) {
   return options;
 }
 
-// The offline runtimes that want OpenCV's parallel loops off, and the thread count OpenCV
-// had before the first of them: the last to end puts it back.
-std::mutex serial_opencv_mutex;
-int serial_opencv_runtimes = 0;
-int opencv_threads_before = 0;
-
-bool SerializeOpenCv(const RuntimeOptions& options) {
-  if (options.live || std::thread::hardware_concurrency() > Runtime::kThreads) return false;
-  std::lock_guard lock(serial_opencv_mutex);
-  if (serial_opencv_runtimes++ == 0) {
-    opencv_threads_before = cv::getNumThreads();
-    cv::setNumThreads(1);
-  }
-  return true;
-}
-
-void RestoreOpenCv() {
-  std::lock_guard lock(serial_opencv_mutex);
-  if (--serial_opencv_runtimes == 0) cv::setNumThreads(opencv_threads_before);
-}
-
-size_t BetweenQueueSize(const RuntimeOptions& options) {
-  return options.live
-             ? options.lens_queue
-             : std::max(options.lens_queue, static_cast<size_t>(options.calibration_lag_frames));
-}
-
 }  // namespace
 
 Runtime::Runtime(const CameraIntrinsics& premission, const AccelCalibration& accel,
@@ -77,29 +50,23 @@ Runtime::Runtime(const CameraIntrinsics& premission, const AccelCalibration& acc
       on_frame_(std::move(on_frame)),
       changes_{{0, 0, pipeline}},
       lens_(pipeline),
-      flow_(pipeline),
       motion_(premission, accel, pipeline),
       input_(options.frame_queue),
-      between_(BetweenQueueSize(options)),
-      tracked_(BetweenQueueSize(options)),
-      serial_opencv_(SerializeOpenCv(options)) {
+      between_(options.live ? options.lens_queue
+                            : std::max(options.lens_queue,
+                                       static_cast<size_t>(options.calibration_lag_frames))) {
   newest_state_ = motion_.state();
   lens_thread_ = std::thread(&Runtime::LensLoop, this);
-  flow_thread_ = std::thread(&Runtime::FlowLoop, this);
   motion_thread_ = std::thread(&Runtime::MotionLoop, this);
   solve_thread_ = std::thread(&Runtime::SolveLoop, this);
 }
 
-Runtime::~Runtime() {
-  Stop();
-  if (serial_opencv_) RestoreOpenCv();
-}
+Runtime::~Runtime() { Stop(); }
 
 void Runtime::WakeAll() {
   stopping_ = true;
   input_.Close();
   between_.Close();
-  tracked_.Close();
   {
     // Under the locks the waits test `stopping_` with, so that no wait misses it.
     std::lock_guard state_lock(state_mutex_);
@@ -111,7 +78,7 @@ void Runtime::WakeAll() {
 
 void Runtime::Stop() {
   WakeAll();
-  for (std::thread* thread : {&lens_thread_, &flow_thread_, &motion_thread_, &solve_thread_}) {
+  for (std::thread* thread : {&lens_thread_, &motion_thread_, &solve_thread_}) {
     if (thread->joinable()) thread->join();
   }
 }
@@ -163,7 +130,6 @@ void Runtime::Finish() {
     // The threads drain the queues in turn and end.
     input_.Close();
     if (lens_thread_.joinable()) lens_thread_.join();
-    if (flow_thread_.joinable()) flow_thread_.join();
     if (motion_thread_.joinable()) motion_thread_.join();
     Stop();
   }
@@ -249,23 +215,6 @@ void Runtime::LensLoop() {
   CountThreadCpu(&RuntimeStats::lens_cpu_s);
 }
 
-void Runtime::FlowLoop() {
-  NameThread(kFlowThreadName);
-  try {
-    int64_t applied = 0;
-    while (std::optional<HalfDone> half = between_.Pop()) {
-      if (stopping_) break;
-      if (auto options = OptionsFor(half->index, &applied)) flow_.set_options(*options);
-      flow_.Process(&half->frame);
-      if (!tracked_.Push(std::move(*half))) break;
-    }
-  } catch (...) {
-    Fail(std::current_exception());
-  }
-  tracked_.Close();
-  CountThreadCpu(&RuntimeStats::flow_cpu_s);
-}
-
 void Runtime::CountThreadCpu(double RuntimeStats::*field) {
   timespec used{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &used);
@@ -315,7 +264,7 @@ void Runtime::MotionLoop() {
     std::optional<int64_t> previous_t_ns;
     while (true) {
       std::optional<HalfDone> half =
-          options_.live ? tracked_.PopUnless([&] { return pending && solved_; }) : tracked_.Pop();
+          options_.live ? between_.PopUnless([&] { return pending && solved_; }) : between_.Pop();
       if (stopping_) break;
       if (!half) {
         if (!pending || !solved_) break;  // The queue closed.
@@ -427,7 +376,7 @@ void Runtime::SolveLoop() {
       solved_ = true;
       lock.unlock();
       solve_changed_.notify_all();
-      tracked_.Wake();
+      between_.Wake();
     }
   } catch (...) {
     Fail(std::current_exception());

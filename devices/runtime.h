@@ -1,9 +1,9 @@
 // Boxes 1-10 on threads, as the paper runs them: boxes 1-3 (LensHalf) on one thread,
-// boxes 6-9 and the judging of attempts (MotionHalf) on another, joined by frame
-// timestamps through bounded queues, with boxes 4-5 (FlowStep) on a third between them,
-// and box 10's solve on a worker of its own so that per-frame work never waits for it. Frames and
-// accelerometer samples are pushed in by the caller; every processed frame is published as an
-// immutable snapshot that any thread may take without locking the pipeline. See docs/runtime.md.
+// boxes 4-9 and the judging of attempts (MotionHalf) on another, joined by frame
+// timestamps through a bounded queue, and box 10's solve on a worker of its own so that
+// per-frame work never waits for it. Frames and accelerometer samples are pushed in by
+// the caller; every processed frame is published as an immutable snapshot that any thread
+// may take without locking the pipeline. See docs/runtime.md.
 #pragma once
 
 #include <atomic>
@@ -99,17 +99,16 @@ class BoundedQueue {
 struct RuntimeOptions {
   // Live: the camera must never wait. When the pipeline falls behind, the oldest frame not
   // yet started is dropped (and counted), boxes 1-3 take the newest calibration there is,
-  // and each attempt is judged as soon as its solve ends (on the boxes 6-9 thread, between
+  // and each attempt is judged as soon as its solve ends (on the boxes 4-9 thread, between
   // frames if it is idle; the next frame's snapshot carries the verdict). Offline: every
   // frame is processed, and what each frame sees is fixed by frame counts, not by thread
   // timing, so that two runs give the same results.
   bool live = false;
   size_t frame_queue = 4;  // Frames waiting for boxes 1-3 (live: the oldest dropped beyond).
-  // Live: frames done by boxes 1-3 waiting for boxes 4-5, and again frames done by boxes
-  // 4-5 waiting for boxes 6-9 (each one waiting adds a frame interval to the latency).
-  // Offline each queue holds at least calibration_lag_frames, so that the lag alone says
-  // how far ahead boxes 1-3 run: with 2, they stalled on the full queue 3 frames ahead
-  // while a core stood idle (bench/README.md, session 37).
+  // Live: frames done by boxes 1-3 waiting for boxes 4-9 (each one waiting adds a frame
+  // interval to the latency). Offline the queue holds at least calibration_lag_frames, so
+  // that the lag alone says how far ahead boxes 1-3 run: with 2, they stalled on the full
+  // queue 3 frames ahead while a core stood idle (bench/README.md, session 37).
   size_t lens_queue = 2;
   // Offline: an attempt made on frame i is judged on frame i + this, waiting for its solve
   // if it has not ended. Boxes 1-9 go on meanwhile, so the solve overlaps them; the
@@ -130,8 +129,7 @@ struct RuntimeOptions {
 
 // The threads' names, as `top -H`, `ps -L` and `perf` show them (15 characters at most).
 inline constexpr char kLensThreadName[] = "boxes 1-3";
-inline constexpr char kFlowThreadName[] = "boxes 4-5";
-inline constexpr char kMotionThreadName[] = "boxes 6-9";
+inline constexpr char kMotionThreadName[] = "boxes 4-9";
 inline constexpr char kSolveThreadName[] = "box 10";
 
 struct RuntimeStats {
@@ -144,14 +142,14 @@ struct RuntimeStats {
   // pushed to the moment its judgement was in effect.
   TimingHistogram update_latency_ms;
   // CPU seconds each thread used, filled in as it ends (after Finish): boxes 1-3 (box 2's
-  // estimates, on threads of their own, not counted), boxes 4-5, boxes 6-9, box 10's
-  // worker. Against the wall-clock time they tell which thread limits the frames per second.
-  double lens_cpu_s = 0.0, flow_cpu_s = 0.0, motion_cpu_s = 0.0, solve_cpu_s = 0.0;
+  // estimates, on threads of their own, not counted), boxes 4-9, box 10's worker.
+  // Against the wall-clock time they tell which thread limits the frames per second.
+  double lens_cpu_s = 0.0, motion_cpu_s = 0.0, solve_cpu_s = 0.0;
 };
 
 class Runtime {
  public:
-  // Called on the boxes 6-9 thread after every frame, in frame order.
+  // Called on the boxes 4-9 thread after every frame, in frame order.
   using FrameCallback = std::function<void(const std::shared_ptr<const FrameSnapshot>&)>;
   // Box 10 on a job, on the solve worker.
   using Solver = std::function<SelfCalibrationResult(const CalibrationJob& job)>;
@@ -164,12 +162,6 @@ class Runtime {
           FrameCallback on_frame = {}, Solver solve = {});
   // Stops the threads; frames still queued are not processed.
   ~Runtime();
-  // How many threads of its own a runtime runs (boxes 2's estimates aside). Offline, on a
-  // machine with no more cores than that, OpenCV's parallel loops (Lucas-Kanade, remap)
-  // run on the thread that calls them while any such runtime lives (cv::setNumThreads,
-  // process-wide): there the pipeline's threads keep the cores busy already, and OpenCV's
-  // workers only took turns with them (bench/README.md, session 38).
-  static constexpr unsigned kThreads = 4;
   Runtime(const Runtime&) = delete;
   Runtime& operator=(const Runtime&) = delete;
 
@@ -227,7 +219,7 @@ class Runtime {
   };
   struct Pending {
     CalibrationJob job;
-    int64_t frame = 0;  // Frames done by boxes 6-9 when it was made.
+    int64_t frame = 0;  // Frames done by boxes 4-9 when it was made.
     Clock::time_point pushed;
   };
   // An attempt judged, and what it took, for the snapshot of the frame it is judged on.
@@ -241,7 +233,6 @@ class Runtime {
   // change `*applied`, updated).
   std::optional<PipelineOptions> OptionsFor(int64_t index, int64_t* applied) const;
   void LensLoop();
-  void FlowLoop();
   void MotionLoop();
   // Takes box 10's result (waiting for it while `solve_lock`, held, is released), judges
   // `pending` by it and puts the new calibration in effect. Nothing when stopping.
@@ -267,20 +258,18 @@ class Runtime {
   mutable std::mutex options_mutex_;
   int64_t next_index_ = 0;
   std::vector<OptionsChange> changes_;  // In index order; the last is options().
-  int64_t motion_index_ = 0;            // The frame boxes 6-9 are on: older changes are done.
+  int64_t motion_index_ = 0;            // The frame boxes 4-9 are on: older changes are done.
 
   LensHalf lens_;
-  FlowStep flow_;
   MotionHalf motion_;
   BoundedQueue<RawFrame> input_;
-  BoundedQueue<HalfDone> between_;  // Boxes 1-3 -> 4-5.
-  BoundedQueue<HalfDone> tracked_;  // Boxes 4-5 -> 6-9.
+  BoundedQueue<HalfDone> between_;
 
   // Accelerometer samples not yet given to box 7, on the camera's clock.
   std::mutex accel_mutex_;
   std::deque<SpecificForceSample> accel_;
 
-  // The calibration after each frame done by boxes 6-9, for boxes 1-3.
+  // The calibration after each frame done by boxes 4-9, for boxes 1-3.
   std::mutex state_mutex_;
   std::condition_variable state_changed_;
   std::map<int64_t, CalibrationState> states_;  // Offline: by frame, those still needed.
@@ -293,7 +282,7 @@ class Runtime {
   std::optional<CalibrationJob> solve_job_;
   SelfCalibrationOptions solve_options_;  // Box 10's options for solve_job_.
   std::optional<SelfCalibrationResult> solve_result_;
-  std::atomic<bool> solved_{false};  // solve_result_ holds a result: live, wakes boxes 6-9.
+  std::atomic<bool> solved_{false};  // solve_result_ holds a result: live, wakes boxes 4-9.
   double solve_ms_ = 0.0;
 
   mutable std::mutex snapshot_mutex_;  // Held only to copy the pointer.
@@ -306,9 +295,8 @@ class Runtime {
   std::mutex failure_mutex_;
   std::exception_ptr failure_;
   bool finished_ = false;
-  const bool serial_opencv_;  // This runtime turned OpenCV's parallel loops off.
 
-  std::thread lens_thread_, flow_thread_, motion_thread_, solve_thread_;
+  std::thread lens_thread_, motion_thread_, solve_thread_;
 };
 
 // Feeds a recorded sequence to `runtime` frame by frame, each frame's accelerometer

@@ -85,16 +85,6 @@ LensFrame LensHalf::Process(int64_t t_ns, const cv::Mat& raw, const CalibrationS
   return frame;
 }
 
-FlowStep::FlowStep(const PipelineOptions& options) : tracker_(options.motion.flow) {}
-
-void FlowStep::set_options(const PipelineOptions& options) {
-  tracker_.set_options(options.motion.flow);
-}
-
-void FlowStep::Process(LensFrame* frame) {
-  frame->tracked = TrackFrame(frame->t_ns, frame->gray, &tracker_);
-}
-
 MotionHalf::MotionHalf(const CameraIntrinsics& premission, const AccelCalibration& accel,
                        const PipelineOptions& options)
     : options_(options),
@@ -159,9 +149,7 @@ FrameSnapshot MotionHalf::Process(LensFrame frame, std::optional<CalibrationJob>
   snapshot.lens = std::move(frame.lens);
   snapshot.timing.rectify_ms = frame.rectify_ms;
 
-  snapshot.motion = frame.tracked ? motion_.Process(frame.t_ns, frame.gray, snapshot.working,
-                                                    std::move(*frame.tracked))
-                                  : motion_.Process(frame.t_ns, frame.gray, snapshot.working);
+  snapshot.motion = motion_.Process(frame.t_ns, frame.gray, snapshot.working);
   snapshot.timing.features_ms = snapshot.motion.features_ms;
   snapshot.timing.flow_ms = snapshot.motion.flow_ms;
   snapshot.timing.planes_ms = snapshot.motion.planes_ms;

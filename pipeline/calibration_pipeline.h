@@ -123,8 +123,6 @@ struct LensFrame {
   // Box 1's snake shapes pooled so far, shared between frames while the pool is unchanged
   // (box 10's plumb-line material).
   std::shared_ptr<const std::vector<LineObservation>> pooled_shapes;
-  // Boxes 4-5 on `gray`, when a FlowStep ran them; else the motion half runs them.
-  std::optional<TrackedFrame> tracked;
 };
 
 // Boxes 1-3. Runs on its own thread in the runtime: it owns the lens stage and box 2's
@@ -145,23 +143,8 @@ class LensHalf {
   std::optional<uint64_t> pooled_version_;
 };
 
-// Boxes 4-5, apart from the motion half: they need nothing but box 3's grey image, so the
-// runtime runs them on a thread of their own, between the two halves (docs/runtime.md).
-// Given every frame or none: the motion half tracks the frames that come untracked itself.
-class FlowStep {
- public:
-  explicit FlowStep(const PipelineOptions& options = {});
-
-  // Fills `frame->tracked`.
-  void Process(LensFrame* frame);
-  void set_options(const PipelineOptions& options);
-
- private:
-  FlowTracker tracker_;
-};
-
-// Boxes 4-9 (4-5 unless a FlowStep ran them), box 10's jobs and their judgement. Frames come in
-// from the lens half in time order; the accelerometer joins them by timestamp.
+// Boxes 4-9, box 10's jobs and their judgement. Frames come in from the lens half in time
+// order; the accelerometer joins them by timestamp.
 class MotionHalf {
  public:
   // Throws Error when the options or the calibration are not valid.

@@ -56,45 +56,30 @@ void MotionStage::set_options(const MotionStageOptions& options) {
   planes_.set_options(options.planes);
 }
 
-TrackedFrame TrackFrame(int64_t t_ns, const cv::Mat& gray, FlowTracker* tracker) {
-  TrackedFrame tracked;
-  auto start = std::chrono::steady_clock::now();
-  tracker->Advance(t_ns, gray);
-  tracked.tracks_died = tracker->died();
-  tracked.flow_ms = MillisecondsSince(start);
-
-  start = std::chrono::steady_clock::now();
-  tracked.tracks_started = tracker->Replenish();
-  tracked.features_ms = MillisecondsSince(start);
-  tracked.tracks = tracker->tracks();
-  return tracked;
-}
-
 MotionSnapshot MotionStage::Process(int64_t t_ns, const cv::Mat& gray,
                                     const CameraIntrinsics& camera) {
-  return Process(t_ns, gray, camera, TrackFrame(t_ns, gray, &flow_));
-}
-
-MotionSnapshot MotionStage::Process(int64_t t_ns, const cv::Mat& gray,
-                                    const CameraIntrinsics& camera, TrackedFrame tracked) {
   MotionSnapshot snapshot;
   snapshot.t_ns = t_ns;
   snapshot.image_size = gray.size();
   snapshot.camera = camera;
-  snapshot.tracks_died = tracked.tracks_died;
-  snapshot.flow_ms = tracked.flow_ms;
-  snapshot.tracks_started = tracked.tracks_started;
-  snapshot.features_ms = tracked.features_ms;
-
   auto start = std::chrono::steady_clock::now();
-  planes_.Update(t_ns, tracked.tracks, camera);
+  flow_.Advance(t_ns, gray);
+  snapshot.tracks_died = flow_.died();
+  snapshot.flow_ms = MillisecondsSince(start);
+
+  start = std::chrono::steady_clock::now();
+  snapshot.tracks_started = flow_.Replenish();
+  snapshot.features_ms = MillisecondsSince(start);
+
+  start = std::chrono::steady_clock::now();
+  planes_.Update(t_ns, flow_.tracks(), camera);
   snapshot.planes_ms = MillisecondsSince(start);
 
   start = std::chrono::steady_clock::now();
   snapshot.planes = Refind(gray, camera);
   snapshot.refind_ms = MillisecondsSince(start);
 
-  snapshot.tracks = std::move(tracked.tracks);
+  snapshot.tracks = flow_.tracks();
   return snapshot;
 }
 

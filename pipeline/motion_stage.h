@@ -67,20 +67,6 @@ struct MotionSnapshot {
   int PlaneOf(int track_id) const;
 };
 
-// Boxes 4-5 on one frame: the tracks as they stand after it, and what it took.
-struct TrackedFrame {
-  std::vector<Track> tracks;
-  int tracks_started = 0;
-  int tracks_died = 0;
-  double features_ms = 0.0;
-  double flow_ms = 0.0;
-};
-
-// Runs boxes 4-5 on one 8-bit grey frame: `tracker` follows its tracks into it, then
-// starts new ones where tracks are missing. They need nothing but the image, so they can
-// run apart from box 6 (the runtime gives them a thread of their own).
-TrackedFrame TrackFrame(int64_t t_ns, const cv::Mat& gray, FlowTracker* tracker);
-
 class MotionStage {
  public:
   explicit MotionStage(const MotionStageOptions& options = {});
@@ -89,10 +75,6 @@ class MotionStage {
   // rectified image, the calibration with its distortion set to zero; for a raw channel,
   // the full calibration, with which the track points are undistorted for box 6.
   MotionSnapshot Process(int64_t t_ns, const cv::Mat& gray, const CameraIntrinsics& camera);
-  // Box 6 alone, on what boxes 4-5 found in the same frame with a FlowTracker of the
-  // caller's (options().flow). A stage takes its tracks one way or the other, not both.
-  MotionSnapshot Process(int64_t t_ns, const cv::Mat& gray, const CameraIntrinsics& camera,
-                         TrackedFrame tracked);
 
   void set_options(const MotionStageOptions& options);
   const MotionStageOptions& options() const { return options_; }
@@ -110,7 +92,7 @@ class MotionStage {
   };
 
   MotionStageOptions options_;
-  FlowTracker flow_;  // Boxes 4-5, unless the caller tracks.
+  FlowTracker flow_;
   PlaneTracker planes_;
   // Each followed plane as seen where it filled most of the image, by box 6's id.
   struct View {
