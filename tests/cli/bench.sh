@@ -30,7 +30,7 @@ for thread in "boxes 1-3" "boxes 4-9" "box 10"; do
   grep -qE "^CPU by thread: .*$thread [0-9.]+ s \([0-9.]+ ms a frame\)" "$dir/plain.txt" ||
     fail "CPU of $thread not printed: $(grep CPU "$dir/plain.txt")"
 done
-# And what the process used beside them: box 2's estimates run on threads of their own.
+# And what the process used beside them (OpenCV's worker, the thread feeding frames, box 2).
 other=$(field other_threads_cpu_s "$dir/plain.json")
 awk -v c="$other" 'BEGIN { exit !(c > 0) }' || fail "CPU of the other threads: '$other' s"
 grep -qE "^CPU by thread: .*, other threads [0-9.]+ s \([0-9.]+ ms a frame\)$" "$dir/plain.txt" ||
