@@ -283,11 +283,12 @@ int Bench(const QStringList& arguments) {
     std::printf("end to end: %.1f frames/s (%.2f s wall)%s\n", report.fps, report.wall_seconds,
                 stream ? ", rendering included" : live ? ", paced by the camera" : "");
     std::printf("cores busy: %.2f on average (CPU time over wall time)\n", cores_busy);
-    // The thread nearest to the wall-clock time is what limits the frames per second.
+    // The pipeline thread nearest to the wall-clock time is what limits the frames per
+    // second; the other threads' line is a sum over several and limits nothing alone.
     std::string by_thread;
-    auto threads = report.thread_cpu_s;
-    threads.emplace_back("other threads", other_cpu_s);
-    for (const auto& [thread, cpu_s] : threads) {
+    auto rows = report.thread_cpu_s;
+    rows.emplace_back("other threads", other_cpu_s);
+    for (const auto& [thread, cpu_s] : rows) {
       char part[128];
       std::snprintf(part, sizeof part, "%s%s %.2f s (%.2f ms a frame)",
                     by_thread.empty() ? "" : ", ", thread.c_str(), cpu_s,
