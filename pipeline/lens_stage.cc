@@ -225,7 +225,7 @@ LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,
   snapshot.lines_ms = MillisecondsSince(start);
 
   ++frames_;
-  if (frames_ % options_.estimate_every_frames == 0 && !estimating_.valid()) {
+  if (begin_estimates_ && frames_ % options_.estimate_every_frames == 0 && !estimating_.valid()) {
     std::vector<LineObservation> newest = NewestShapes(options_.estimate_per_cell);
     if (int(newest.size()) >= options_.plumb_line.min_lines) {
       estimating_ = std::async(std::launch::async, [shapes = std::move(newest), calibration,

@@ -87,6 +87,9 @@ class LensStage {
   // snake's shape is then pooled as the frame's time saw it, each hinge moved back by its
   // edge's motion across the line since the previous frame over its row's delay.
   void set_readout_ms(double readout_ms) { readout_ms_ = readout_ms; }
+  // Whether box 2 begins estimates (it does by default). An estimate under way still takes
+  // effect when due.
+  void set_estimating(bool estimating) { begin_estimates_ = estimating; }
   size_t pooled_shapes() const;
   // The snake shapes pooled so far (raw pixels), bin by bin over the image.
   std::vector<LineObservation> PooledShapes() const;
@@ -107,6 +110,7 @@ class LensStage {
   // Where each snake's last pooled shape was (by snake id), to pool only new views.
   std::vector<std::pair<int, Eigen::Vector2d>> last_pooled_;
   double readout_ms_ = 0.0;
+  bool begin_estimates_ = true;
   // The snakes of the frame before and its time: with a rolling shutter, their motion.
   std::vector<RadonSnake> previous_snakes_;
   int64_t previous_t_ns_ = 0;

@@ -1,6 +1,7 @@
 // The pieces around boxes 1-10 that `autocal run` is made of: the window of material
 // (box 9), where each solve starts, the option fields and settings files, the error
 // against the truth, and the run's summary JSON read back with OpenCV's own JSON reader.
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -133,47 +134,101 @@ TEST(MaterialWindow, ThinsLinesEvenlyOverThePool) {
   EXPECT_EQ(material.lines[3].points[0].x(), 7.0);
 }
 
+// What the tests below ask of one walk through the pipeline in its two halves, box 10
+// solved on the spot where `autocal run` gives it a thread.
+struct PipelineWalk {
+  struct Job {
+    size_t frame = 0;
+    bool after_an_attempt = false;   // The history held attempts when it was handed out.
+    std::optional<double> start_fx;  // Where its solve started, if from an earlier solve.
+    bool taken = false;              // Accepted, or the start of a new regime.
+    bool with_distortion = false;    // The distortion was estimated.
+    double fx = 0.0;
+  };
+  size_t frames = 0;
+  std::vector<Job> jobs;
+  std::vector<size_t> box2_estimates;  // Frames on which one of box 2's estimates landed.
+};
+
+// The office through the sonnar lens from the wrong start, 6 s at 320x240.
+const PipelineWalk& WrongStartWalk() {
+  static const PipelineWalk kWalk = [] {
+    const std::unique_ptr<Sequence> sequence =
+        MakeSimulatedSequence(ParseScenarioSpec("office,lens=sonnar,resolution=320x240,seconds=6"));
+    AccelCalibration accel;
+    accel.cam_from_accel = sequence->session().cam_from_accel;
+    const PipelineOptions options;
+    CalibrationPipeline pipeline(test::WrongStart(*sequence->session().premission_calibration),
+                                 accel, options);
+    // The accelerometer half a quasi-static window ahead of the frames, as the runtime has it.
+    const auto lead_ns = int64_t(0.5 * options.inertial.quasi_static.window_s * 1e9);
+    const std::vector<AccelSample>& samples = sequence->accel();
+    size_t fed = 0;
+    PipelineWalk walk;
+    walk.frames = sequence->frame_count();
+    for (size_t i = 0; i < sequence->frame_count(); ++i) {
+      const int64_t t_ns = sequence->frame_time_ns(i);
+      std::vector<SpecificForceSample> batch;
+      for (; fed < samples.size() && samples[fed].t_ns <= t_ns + lead_ns; ++fed) {
+        batch.push_back({samples[fed].t_ns, samples[fed].specific_force});
+      }
+      pipeline.AddAccel(batch);
+      std::optional<CalibrationJob> job;
+      const FrameSnapshot snapshot = pipeline.ProcessFrame(t_ns, sequence->LoadFrame(i), &job);
+      if (snapshot.timing.distortion_ms > 0) walk.box2_estimates.push_back(i);
+      if (!job) continue;
+      PipelineWalk::Job done;
+      done.frame = i;
+      done.after_an_attempt = !pipeline.history().attempts().empty();
+      if (job->material.start) done.start_fx = job->material.start->intrinsics.fx;
+      const SelfCalibrationResult result =
+          SelfCalibrate(job->material, job->prior, options.calibration);
+      const AttemptRecord& record = pipeline.Judge(*job, result)->record;
+      done.taken = record.verdict == Verdict::kAccepted || record.verdict == Verdict::kNewRegime;
+      done.with_distortion = std::ranges::count(record.free_parameters, int(kK1)) > 0;
+      done.fx = result.estimate.fx;
+      walk.jobs.push_back(done);
+    }
+    return walk;
+  }();
+  return kWalk;
+}
+
 // The attempts that confirm a jump must each reach it on their own: a solve the history
 // rejected does not seed the next, or one wrong minimum is carried from window to window
 // (outdoor sonnar seed 4 at 320x240: the ground alone, fx 137 px for 213 three times in a
 // row, and a false alarm). From the wrong start the first attempts are rejected
 // and start afresh; once a regime takes one, each starts from the last one taken.
 TEST(CalibrationPipeline, OnlyASolveTheHistoryTookSeedsTheNext) {
-  const std::unique_ptr<Sequence> sequence =
-      MakeSimulatedSequence(ParseScenarioSpec("office,lens=sonnar,resolution=320x240,seconds=4.5"));
-  AccelCalibration accel;
-  accel.cam_from_accel = sequence->session().cam_from_accel;
-  const PipelineOptions options;
-  CalibrationPipeline pipeline(test::WrongStart(*sequence->session().premission_calibration), accel,
-                               options);
-  const auto lead_ns = int64_t(0.5 * options.inertial.quasi_static.window_s * 1e9);
-  const std::vector<AccelSample>& samples = sequence->accel();
-  size_t fed = 0;
-  std::optional<CameraIntrinsics> taken;  // The last solve the history took.
+  std::optional<double> taken_fx;  // Of the last solve the history took.
   int before_any_taken = 0, after_taken = 0;
-  for (size_t i = 0; i < sequence->frame_count(); ++i) {
-    const int64_t t_ns = sequence->frame_time_ns(i);
-    std::vector<SpecificForceSample> batch;
-    for (; fed < samples.size() && samples[fed].t_ns <= t_ns + lead_ns; ++fed) {
-      batch.push_back({samples[fed].t_ns, samples[fed].specific_force});
-    }
-    pipeline.AddAccel(batch);
-    std::optional<CalibrationJob> job;
-    pipeline.ProcessFrame(t_ns, sequence->LoadFrame(i), &job);
-    if (!job) continue;
-    if (!pipeline.history().attempts().empty()) (taken ? after_taken : before_any_taken) += 1;
-    ASSERT_EQ(job->material.start.has_value(), taken.has_value()) << "at " << t_ns * 1e-9 << " s";
-    if (taken) {
-      EXPECT_EQ(job->material.start->intrinsics.fx, taken->fx);
-    }
-    const SelfCalibrationResult result =
-        SelfCalibrate(job->material, job->prior, options.calibration);
-    const Verdict verdict = pipeline.Judge(*job, result)->record.verdict;
-    if (verdict == Verdict::kAccepted || verdict == Verdict::kNewRegime) taken = result.estimate;
+  for (const PipelineWalk::Job& job : WrongStartWalk().jobs) {
+    if (job.after_an_attempt) (taken_fx ? after_taken : before_any_taken) += 1;
+    EXPECT_EQ(job.start_fx, taken_fx) << "the job on frame " << job.frame;
+    if (job.taken) taken_fx = job.fx;
   }
   // Not vacuous: attempts came both before anything was taken and after.
   EXPECT_GE(before_any_taken, 2);
   EXPECT_GE(after_taken, 2);
+}
+
+// Box 2's estimates steer boxes 1-6 only until the history holds a distortion (box 10's,
+// from the whole pool): it begins none after that, and the one under way still lands.
+TEST(CalibrationPipeline, Box2StopsEstimatingOnceTheHistoryHoldsADistortion) {
+  const PipelineWalk& walk = WrongStartWalk();
+  const auto first_taken = std::ranges::find_if(
+      walk.jobs, [](const PipelineWalk::Job& job) { return job.taken && job.with_distortion; });
+  ASSERT_NE(first_taken, walk.jobs.end()) << "the history never took a distortion";
+  const size_t taken_at = first_taken->frame;
+  const LensOptions lens;
+  ASSERT_GT(walk.frames, taken_at + 2 * size_t(lens.estimate_every_frames))
+      << "too short a walk after the distortion was taken to show that box 2 stopped";
+  ASSERT_FALSE(walk.box2_estimates.empty());
+  EXPECT_LT(walk.box2_estimates.front(), taken_at) << "box 2 estimated nothing before";
+  // An estimate begun on that frame or before lands within the lag; none is begun after.
+  EXPECT_LE(walk.box2_estimates.back(), taken_at + size_t(lens.estimate_lag_frames))
+      << walk.box2_estimates.size() << " estimates, the last on frame "
+      << walk.box2_estimates.back() << "; the history took a distortion on frame " << taken_at;
 }
 
 TEST(OptionFields, EveryFieldReadsBackWhatWasSetAndTheDefaultsAreInRange) {

@@ -15,7 +15,8 @@ namespace {
 const std::array<std::pair<const char*, const char*>, 12> kRows = {{
     {"frame", "Frame: boxes 1-9 and the judgement, on the frame's own threads"},
     {"lines", "1  Lines and snakes"},
-    {"distortion", "2  Distortion from the plumb lines (a worker, every 30 frames)"},
+    {"distortion",
+     "2  Distortion from the plumb lines (a worker, every 30 frames until one is accepted)"},
     {"rectify", "3  Green channel, equalized; image measures"},
     {"features", "4  Corners"},
     {"flow", "5  Optical flow"},
