@@ -95,9 +95,11 @@ Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIn
   Solve solve;
   ParameterArena arena(kNumIntrinsics + PlumbLineParameterCount(lines));
   double* const intrinsics = arena.Add(start.Packed());
-  ceres::Problem problem;
+  // One loss for every residual, outliving the problem: not one allocated for each.
+  ceres::CauchyLoss loss(loss_scale_px);
+  ceres::Problem problem(UnownedLosses());
   auto* ordering = new ceres::ParameterBlockOrdering;
-  AddPlumbLineResiduals(lines, start, loss_scale_px, intrinsics, &problem, ordering, &arena);
+  AddPlumbLineResiduals(lines, start, &loss, intrinsics, &problem, ordering, &arena);
   ordering->AddElementToGroup(intrinsics, 1);
   std::vector<int> fixed = {kFx, kFy};
   if (!options.estimate_centre) fixed.insert(fixed.end(), {kCx, kCy});
@@ -395,7 +397,7 @@ std::vector<bool> StraightLines(const std::vector<const LineObservation*>& lines
 }
 
 std::vector<double*> AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
-                                           const CameraIntrinsics& start, double loss_px,
+                                           const CameraIntrinsics& start, ceres::LossFunction* loss,
                                            double* intrinsics, ceres::Problem* problem,
                                            ceres::ParameterBlockOrdering* ordering,
                                            ParameterArena* arena) {
@@ -406,8 +408,8 @@ std::vector<double*> AddPlumbLineResiduals(const std::vector<const LineObservati
     double* const line = arena->Add(std::array{fit.theta, fit.rho});
     const Eigen::Vector2d along(-std::sin(fit.theta), std::cos(fit.theta));
     for (size_t k = 0; k < ideal.size(); ++k) {
-      problem->AddResidualBlock(new LinePointCost(observed->points[k], along.dot(ideal[k])),
-                                new ceres::CauchyLoss(loss_px), intrinsics, line);
+      problem->AddResidualBlock(new LinePointCost(observed->points[k], along.dot(ideal[k])), loss,
+                                intrinsics, line);
     }
     ordering->AddElementToGroup(line, 0);
     blocks.push_back(line);

@@ -42,6 +42,14 @@ class LinePointCost final : public ceres::SizedCostFunction<2, kNumIntrinsics, 2
   double position_;  // Along the line, where the search starts.
 };
 
+// Options for a problem whose residuals share one loss the caller owns (a loss object per
+// residual costs an allocation and an entry in Ceres' ownership table each).
+inline ceres::Problem::Options UnownedLosses() {
+  ceres::Problem::Options options;
+  options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  return options;
+}
+
 // Every parameter block of one problem in a single allocation, handed out in the order
 // asked for. Ceres orders the blocks of an elimination group by address; within one
 // allocation that is this order, so two solves of the same material agree to the last
@@ -72,10 +80,12 @@ std::vector<bool> StraightLines(const std::vector<const LineObservation*>& lines
 size_t PlumbLineParameterCount(const std::vector<const LineObservation*>& lines);
 
 // Adds one residual per point of every line, on `intrinsics` (packed, owned by the
-// caller), with the lines taken from `arena` and initialized from `start`. The lines go in
-// elimination group 0 of `ordering`. Returns each line's parameter block, in order.
+// caller), with the lines taken from `arena` and initialized from `start`. Every residual
+// takes `loss` (the problem's options say who owns it; Ceres deletes a shared one once).
+// The lines go in elimination group 0 of `ordering`. Returns each line's parameter block,
+// in order.
 std::vector<double*> AddPlumbLineResiduals(const std::vector<const LineObservation*>& lines,
-                                           const CameraIntrinsics& start, double loss_px,
+                                           const CameraIntrinsics& start, ceres::LossFunction* loss,
                                            double* intrinsics, ceres::Problem* problem,
                                            ceres::ParameterBlockOrdering* ordering,
                                            ParameterArena* arena);

@@ -549,7 +549,9 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   // Each plane m . X = 1 in the camera of its own reference view, the one that sees most of
   // its points (the window's reference where it sees as many), and each point on its ray
   // (a, b, 1) there (PlanePointCost).
-  ceres::Problem problem;
+  // One loss for every residual, outliving the problem: not one allocated for each.
+  ceres::CauchyLoss loss(options.loss_px);
+  ceres::Problem problem(UnownedLosses());
   auto* ordering = new ceres::ParameterBlockOrdering;
   std::array<double, kNumIntrinsics> intrinsics = start.Packed();
   std::vector<Pose> frame_poses(material.frame_count);
@@ -761,13 +763,11 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     double* const ray = ray_blocks[r.plane].at(r.point);
     if (r.frame == k) {
       r.ray_cost = new ReferenceRayCost(r.pixel);
-      problem.AddResidualBlock(r.ray_cost, new ceres::CauchyLoss(options.loss_px), intrinsics_block,
-                               ray);
+      problem.AddResidualBlock(r.ray_cost, &loss, intrinsics_block, ray);
     } else {
       r.plane_cost = new PlanePointCost(r.pixel);
-      problem.AddResidualBlock(r.plane_cost, new ceres::CauchyLoss(options.loss_px),
-                               intrinsics_block, frame_blocks[r.frame], frame_blocks[k],
-                               plane_blocks[r.plane], ray);
+      problem.AddResidualBlock(r.plane_cost, &loss, intrinsics_block, frame_blocks[r.frame],
+                               frame_blocks[k], plane_blocks[r.plane], ray);
     }
   }
   for (size_t p = 0; p < tracks.size(); ++p) {
@@ -789,8 +789,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
   }
 
   // Straight lines (box 2) and gravity at rest (box 7).
-  const std::vector<double*> line_blocks = AddPlumbLineResiduals(
-      lines, start, options.loss_px, intrinsics_block, &problem, ordering, &arena);
+  const std::vector<double*> line_blocks =
+      AddPlumbLineResiduals(lines, start, &loss, intrinsics_block, &problem, ordering, &arena);
   result.lines_used = int(lines.size());
   double* down_world = nullptr;
   for (const GravityObservation& g : material.gravity) {

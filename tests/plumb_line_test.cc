@@ -162,7 +162,8 @@ TEST(PlumbLine, MarginalCovarianceAgreesWithCeresDenseSvd) {
   double* const intrinsics = arena.Add(truth.Packed());
   ceres::Problem problem;
   auto* ordering = new ceres::ParameterBlockOrdering;
-  AddPlumbLineResiduals(lines, truth, 1.0, intrinsics, &problem, ordering, &arena);
+  AddPlumbLineResiduals(lines, truth, new ceres::CauchyLoss(1.0), intrinsics, &problem, ordering,
+                        &arena);
   ordering->AddElementToGroup(intrinsics, 1);
   problem.SetManifold(intrinsics, new ceres::SubsetManifold(kNumIntrinsics, {kFx, kFy, kP1, kP2}));
   ceres::Solver::Options options;
@@ -248,8 +249,8 @@ class PlaneSeenFromViews {
     for (double* view : view_blocks) ordering->AddElementToGroup(view, 1);
     problem.SetManifold(plane_block, new ceres::SphereManifold<3>());
     ordering->AddElementToGroup(plane_block, 1);
-    line_blocks = AddPlumbLineResiduals(lines, truth, 1.0, intrinsics, &problem, ordering.get(),
-                                        arena_.get());
+    line_blocks = AddPlumbLineResiduals(lines, truth, new ceres::CauchyLoss(1.0), intrinsics,
+                                        &problem, ordering.get(), arena_.get());
     problem.SetManifold(intrinsics, new ceres::SubsetManifold(kNumIntrinsics, {kP1, kP2, kK3}));
     ordering->AddElementToGroup(intrinsics, 1);
     ceres::Solver::Options options;
