@@ -33,6 +33,7 @@
 #include "pipeline/calibration_io.h"
 #include "pipeline/history_store.h"
 #include "tests/gui/pixels.h"
+#include "tests/gui/screenshot.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
 #include "widgets/history_table.h"
@@ -150,12 +151,6 @@ const AttemptRecord& AttemptAt(const CalibrationSeries& series, int second) {
     if (r.t_ns == kStartNs + second * kSecond) return r;
   }
   qFatal("no attempt at %d s", second);
-}
-
-QString ScreenshotPath(const QString& name) {
-  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QDir().mkpath(dir);
-  return QDir(dir).filePath(name);
 }
 
 }  // namespace

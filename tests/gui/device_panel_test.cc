@@ -7,7 +7,6 @@
 #include <memory>
 
 #include <QComboBox>
-#include <QDir>
 #include <QDoubleSpinBox>
 #include <QFile>
 #include <QLabel>
@@ -22,6 +21,7 @@
 #include "devices/inspect.h"
 #include "devices/sequence.h"
 #include "pipeline/calibration_io.h"
+#include "tests/gui/screenshot.h"
 #include "widgets/calibration_file_field.h"
 #include "widgets/device_panel.h"
 #include "widgets/live_session.h"
@@ -129,9 +129,7 @@ void DevicePanelTest::connectsRecordsAndDisconnects() {
   QTRY_VERIFY_WITH_TIMEOUT(session.status().recorded.frames_written >= 15, kTimeoutMs);
   QVERIFY2(Text(panel, "recording").contains(dir), qPrintable(Text(panel, "recording")));
   // For a person to look at: the panel connected and recording.
-  const QString shots = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QDir().mkpath(shots);
-  QVERIFY(panel.grab().save(QDir(shots).filePath("device_panel.png")));
+  QVERIFY(panel.grab().save(ScreenshotPath(QStringLiteral("device_panel.png"))));
   QVERIFY(session.status().frames_done > 5);  // The pipeline kept going while recording.
   QTest::mouseClick(Find<QPushButton>(panel, "record"), Qt::LeftButton);
   QTRY_COMPARE_WITH_TIMEOUT(stopped.count(), 1, kTimeoutMs);

@@ -21,6 +21,7 @@
 #include "devices/sim/simulator.h"
 #include "pipeline/calibration_io.h"
 #include "pipeline/vest_check.h"
+#include "tests/gui/screenshot.h"
 #include "widgets/vest_check_dialog.h"
 #include "widgets/vest_report.h"
 
@@ -31,9 +32,7 @@ namespace {
 const QString kVest = QStringLiteral("sim:office,resolution=320x240,seconds=8");
 
 void SaveScreenshot(QWidget& widget, const QString& name) {
-  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QVERIFY(QDir().mkpath(dir));
-  const QString path = QDir(dir).filePath(name);
+  const QString path = ScreenshotPath(name);
   QVERIFY(widget.grab().save(path, "PNG"));
   qInfo("screenshot: %s", qPrintable(path));
 }

@@ -37,6 +37,7 @@
 #include "devices/sequence.h"
 #include "devices/session_io.h"
 #include "pipeline/calibration_io.h"
+#include "tests/gui/screenshot.h"
 #include "widgets/accel_plot.h"
 #include "widgets/elided_label.h"
 #include "widgets/frame_loader.h"
@@ -712,9 +713,7 @@ void WorkbenchTest::screenshotIsNotBlank() {
   QVERIFY(window);
   QTest::qWait(1500);  // Let it play, so the plot has a history behind the cursor.
   const QImage shot = window->grab().toImage();
-  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QVERIFY(QDir().mkpath(dir));
-  const QString path = QDir(dir).filePath(QStringLiteral("workbench.png"));
+  const QString path = ScreenshotPath(QStringLiteral("workbench.png"));
   QVERIFY(shot.save(path, "PNG"));
   qInfo("screenshot: %s", qPrintable(path));
 
@@ -781,8 +780,7 @@ void WorkbenchTest::statusTextFitsAtDefaultSize() {
       QVERIFY2(!a.intersects(b), qPrintable(labels[i]->text() + " / " + labels[j]->text()));
     }
   }
-  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QVERIFY(window.grab().save(QDir(dir).filePath(QStringLiteral("workbench_default_size.png"))));
+  QVERIFY(window.grab().save(ScreenshotPath(QStringLiteral("workbench_default_size.png"))));
 
   // Narrower, the source's text ends in an ellipsis where it stops, not mid-word.
   window.resize(1000, window.height());
@@ -792,7 +790,7 @@ void WorkbenchTest::statusTextFitsAtDefaultSize() {
   QVERIFY2(elided->shownText().endsWith(QChar(0x2026)), qPrintable(elided->shownText()));
   QVERIFY(elided->fontMetrics().horizontalAdvance(elided->shownText()) <=
           elided->contentsRect().width());
-  QVERIFY(window.grab().save(QDir(dir).filePath(QStringLiteral("workbench_narrow.png"))));
+  QVERIFY(window.grab().save(ScreenshotPath(QStringLiteral("workbench_narrow.png"))));
 }
 
 // Issue 6: each box's median and 95th percentile in the workbench, as in the summary. Once
@@ -846,8 +844,7 @@ void WorkbenchTest::timingDockShowsTheRunsBoxTimes() {
   QVERIFY(dock);
   dock->raise();
   QTest::qWait(200);
-  const QString dir = qEnvironmentVariable("AUTOCAL_SCREENSHOT_DIR", QDir::tempPath());
-  QVERIFY(window.grab().save(QDir(dir).filePath(QStringLiteral("workbench_timing.png"))));
+  QVERIFY(window.grab().save(ScreenshotPath(QStringLiteral("workbench_timing.png"))));
 }
 
 // Opening another recording: until its first frame is decoded, the view shows that it is
