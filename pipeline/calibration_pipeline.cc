@@ -70,7 +70,7 @@ LensFrame LensHalf::Process(int64_t t_ns, const cv::Mat& raw, const CalibrationS
                       : WithDistortionOf(state.filtered.calibration, plumb_line_->estimate);
 
   // Box 2's estimates are taken only until then: afterwards box 10 estimates the distortion
-  // with the pinhole, from the same shapes.
+  // with the pinhole, from the whole pool of shapes.
   lens_.set_estimating(!state.distortion_accepted);
   frame.lens = lens_.Process(t_ns, raw, frame.working);
   if (frame.lens.distortion && frame.lens.distortion->usable) plumb_line_ = frame.lens.distortion;
