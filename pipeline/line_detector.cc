@@ -242,18 +242,28 @@ std::vector<RadonPeak> FindRadonPeaks(const cv::Mat& edges, const Gradients& gra
       }
     }
   }
+  // Scanned in memory order, a distance's bins at a time: by angle, each step of the scan
+  // landed in another cache line.
   std::vector<RadonPeak> peaks;
-  for (int n = 0; n < thetas; ++n) {
-    for (int r = 0; r < rhos; ++r) {
-      const int votes = bin(r, n);
-      if (votes > min_votes && votes > bin(r - 1, n) && votes >= bin(r + 1, n) &&
-          votes > bin(r, n - 1) && votes >= bin(r, n + 1)) {
+  for (int r = 0; r < rhos; ++r) {
+    const uint16_t* nearer = &bin(r - 1, 0);
+    const uint16_t* row = &bin(r, 0);
+    const uint16_t* farther = &bin(r + 1, 0);
+    for (int n = 0; n < thetas; ++n) {
+      const int votes = row[n];
+      if (votes > min_votes && votes > nearer[n] && votes >= farther[n] && votes > row[n - 1] &&
+          votes >= row[n + 1]) {
         peaks.push_back({(r - rho_offset) * options.rho_resolution_px, n * theta_step, votes});
       }
     }
   }
-  std::stable_sort(peaks.begin(), peaks.end(),
-                   [](const RadonPeak& a, const RadonPeak& b) { return a.votes > b.votes; });
+  // Strongest first; among equals by angle, then distance (the order peaks are tried in
+  // decides which of two lines claims a shared pixel).
+  std::sort(peaks.begin(), peaks.end(), [](const RadonPeak& a, const RadonPeak& b) {
+    if (a.votes != b.votes) return a.votes > b.votes;
+    if (a.theta != b.theta) return a.theta < b.theta;
+    return a.rho < b.rho;
+  });
   return peaks;
 }
 
