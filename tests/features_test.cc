@@ -225,12 +225,18 @@ TEST(Keypoints, MatchesAreBruteForceMatchersToTheLastTie) {
     ExpectSameMatches(DetectKeypoints(gray, options), DetectKeypoints(warped, options), options,
                       50);
   }
-  // Short binary descriptors, 1 to 13 bytes (a tail beyond whole 64-bit words): half of
-  // b's rows are a's with a bit flipped, two from each (ties), the rest random; one
-  // candidate alone.
+  // Short binary descriptors, 1 to 13 bytes (a tail beyond whole 64-bit words), and ORB's
+  // 32 bytes with rows past a multiple of four (the wide path's last rows): half of b's
+  // rows are a's with a bit flipped, two from each (ties), the rest random; one candidate
+  // alone.
   cv::RNG rng(7);
-  for (const auto& [rows_a, rows_b, bytes] :
-       {std::tuple{300, 200, 3}, {40, 1, 5}, {64, 48, 8}, {120, 90, 13}, {50, 60, 1}}) {
+  for (const auto& [rows_a, rows_b, bytes] : {std::tuple{300, 200, 3},
+                                              {40, 1, 5},
+                                              {64, 48, 8},
+                                              {120, 90, 13},
+                                              {50, 60, 1},
+                                              {70, 35, 32},
+                                              {9, 3, 32}}) {
     KeypointSet a, b;
     a.descriptors.create(rows_a, bytes, CV_8U);
     b.descriptors.create(rows_b, bytes, CV_8U);
