@@ -232,14 +232,22 @@ constexpr int kOrbBytes = 32;
   }
 }
 #undef AUTOCAL_WIDE_POPCOUNT
-
-bool HasWidePopcount() {
-  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-                          __builtin_cpu_supports("avx512dq") &&
-                          __builtin_cpu_supports("avx512vpopcntdq");
-  return has;
-}
 #endif
+
+// OrbHammingDistancesWide where the descriptors are ORB's and the CPU can; false elsewhere.
+bool OrbHammingDistancesIfWide([[maybe_unused]] const cv::Mat& a, [[maybe_unused]] const cv::Mat& b,
+                               [[maybe_unused]] cv::Mat* distances) {
+#if defined(__x86_64__)
+  static const bool cpu_can =
+      __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+      __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vpopcntdq");
+  if (!cpu_can || a.cols != kOrbBytes) return false;
+  OrbHammingDistancesWide(a, b, distances);
+  return true;
+#else
+  return false;
+#endif
+}
 
 }  // namespace
 
@@ -254,15 +262,9 @@ std::vector<cv::DMatch> MatchKeypoints(const KeypointSet& a, const KeypointSet& 
   // index order with strict comparisons, ties go to the lowest index, as BFMatcher's do.
   cv::Mat distances(a.descriptors.rows, b.descriptors.rows, CV_32F);
   if (a.descriptors.depth() == CV_8U) {
-#if defined(__x86_64__)
-    if (a.descriptors.cols == kOrbBytes && HasWidePopcount()) {
-      OrbHammingDistancesWide(a.descriptors, b.descriptors, &distances);
-    } else {
+    if (!OrbHammingDistancesIfWide(a.descriptors, b.descriptors, &distances)) {
       HammingDistances(a.descriptors, b.descriptors, &distances);
     }
-#else
-    HammingDistances(a.descriptors, b.descriptors, &distances);
-#endif
   } else {
     cv::batchDistance(a.descriptors, b.descriptors, distances, CV_32F, cv::noArray(), cv::NORM_L2);
   }
