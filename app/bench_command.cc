@@ -296,6 +296,15 @@ int Bench(const QStringList& arguments) {
       by_thread += part;
     }
     std::printf("CPU by thread: %s\n", by_thread.c_str());
+    // Where the per-frame threads stood still: the one that waits least holds the others up.
+    std::string waits;
+    for (const auto& [what, wait_s] : report.thread_wait_s) {
+      char part[128];
+      std::snprintf(part, sizeof part, "%s%s %.2f s", waits.empty() ? "" : ", ", what.c_str(),
+                    wait_s);
+      waits += part;
+    }
+    std::printf("waited: %s\n", waits.c_str());
     if (report.live) {
       std::printf("live: %llu frames delivered, %llu dropped\n",
                   static_cast<unsigned long long>(report.live->frames_received),
@@ -334,6 +343,12 @@ int Bench(const QStringList& arguments) {
       }
       json += "},\n";
       json += "  \"other_threads_cpu_s\": " + JsonNumber(other_cpu_s) + ",\n";
+      json += "  \"thread_wait_s\": {";
+      for (size_t i = 0; i < report.thread_wait_s.size(); ++i) {
+        json += std::string(i ? ", " : "") + JsonString(report.thread_wait_s[i].first) + ": " +
+                JsonNumber(report.thread_wait_s[i].second);
+      }
+      json += "},\n";
       json += "  \"judge_after_frames\": " + std::to_string(judge_after) + ",\n";
       json += "  \"settings\": {";
       for (size_t i = 0; i < changed.size(); ++i) {

@@ -158,6 +158,14 @@ void CompleteReport(const Runtime& runtime, FrameLog log,
   report->thread_cpu_s = {{kLensThreadName, stats.lens_cpu_s},
                           {kMotionThreadName, stats.motion_cpu_s},
                           {kSolveThreadName, stats.solve_cpu_s}};
+  const auto waiting = [](const char* thread, const char* on) {
+    return std::string(thread) + " for " + on;
+  };
+  report->thread_wait_s = {
+      {waiting(kLensThreadName, "frames"), stats.lens_wait_input_s},
+      {waiting(kLensThreadName, kMotionThreadName), stats.lens_wait_motion_s},
+      {waiting(kMotionThreadName, kLensThreadName), stats.motion_wait_lens_s},
+      {waiting(kMotionThreadName, kSolveThreadName), stats.motion_wait_solve_s}};
   if (truth && truth->size() == log.t_ns.size() && !truth->empty()) {
     report->truth = CompareWithTruth(log.t_ns, log.outputs, *truth, settings.convergence);
   }

@@ -87,6 +87,10 @@ struct RunReport {
   std::optional<LiveRunReport> live;  // RunSource only.
   // CPU seconds of the runtime's threads, by name (kLensThreadName...; RuntimeStats).
   std::vector<std::pair<std::string, double>> thread_cpu_s;
+  // Wall-clock seconds the per-frame threads waited, by thread and what for ("boxes 1-3
+  // for frames", "boxes 1-3 for boxes 4-9", "boxes 4-9 for boxes 1-3", "boxes 4-9 for box
+  // 10"; RuntimeStats).
+  std::vector<std::pair<std::string, double>> thread_wait_s;
 };
 
 struct RunProgress {

@@ -1,6 +1,7 @@
 #include "devices/runtime.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iterator>
 #include <utility>
@@ -30,6 +31,15 @@ bool RuntimeOptions::Check(std::string* error) const {
 namespace {
 
 void NameThread(const char* name) { pthread_setname_np(pthread_self(), name); }
+
+// Runs `wait` (a call that may block) and adds the wall-clock seconds it took to `*waited`.
+template <typename Wait>
+auto Timed(double* waited, Wait&& wait) {
+  const auto start = std::chrono::steady_clock::now();
+  auto result = wait();
+  *waited += 1e-3 * MillisecondsSince(start);
+  return result;
+}
 
 const RuntimeOptions& Checked(const RuntimeOptions& options) {
   std::string why;
@@ -199,20 +209,29 @@ CalibrationState Runtime::StateFor(int64_t frame) {
 
 void Runtime::LensLoop() {
   NameThread(kLensThreadName);
+  double waited_input_s = 0.0, waited_motion_s = 0.0;
   try {
     int64_t frame = 0;
     int64_t applied = 0;
-    while (std::optional<RawFrame> raw = input_.Pop()) {
+    while (std::optional<RawFrame> raw = Timed(&waited_input_s, [&] { return input_.Pop(); })) {
       if (stopping_) break;
       if (auto options = OptionsFor(raw->index, &applied)) lens_.set_options(*options);
-      LensFrame done = lens_.Process(raw->t_ns, raw->raw, StateFor(frame++));
-      if (!between_.Push({raw->index, std::move(done), raw->pushed})) break;
+      const CalibrationState state = Timed(&waited_motion_s, [&] { return StateFor(frame++); });
+      LensFrame done = lens_.Process(raw->t_ns, raw->raw, state);
+      if (!Timed(&waited_motion_s, [&] {
+            return between_.Push({raw->index, std::move(done), raw->pushed});
+          })) {
+        break;
+      }
     }
   } catch (...) {
     Fail(std::current_exception());
   }
   between_.Close();
   CountThreadCpu(&RuntimeStats::lens_cpu_s);
+  std::lock_guard lock(stats_mutex_);
+  stats_.lens_wait_input_s = waited_input_s;
+  stats_.lens_wait_motion_s = waited_motion_s;
 }
 
 void Runtime::CountThreadCpu(double RuntimeStats::*field) {
@@ -235,8 +254,11 @@ void Runtime::FeedAccel(int64_t t_ns) {
 }
 
 std::optional<Runtime::Judgement> Runtime::Judge(const Pending& pending,
-                                                 std::unique_lock<std::mutex>* solve_lock) {
+                                                 std::unique_lock<std::mutex>* solve_lock,
+                                                 double* waited) {
+  const auto waiting = Clock::now();
   solve_changed_.wait(*solve_lock, [&] { return stopping_ || solve_result_.has_value(); });
+  *waited += 1e-3 * MillisecondsSince(waiting);
   if (!solve_result_) return std::nullopt;  // Stopping.
   const SelfCalibrationResult result = std::move(*solve_result_);
   solve_result_.reset();
@@ -256,6 +278,7 @@ std::optional<Runtime::Judgement> Runtime::Judge(const Pending& pending,
 
 void Runtime::MotionLoop() {
   NameThread(kMotionThreadName);
+  double waited_lens_s = 0.0, waited_solve_s = 0.0;
   try {
     std::optional<Pending> pending;
     std::optional<Judgement> judged_between;  // Live, while idle: for the next snapshot.
@@ -263,15 +286,17 @@ void Runtime::MotionLoop() {
     int64_t applied = 0;
     std::optional<int64_t> previous_t_ns;
     while (true) {
-      std::optional<HalfDone> half =
-          options_.live ? between_.PopUnless([&] { return pending && solved_; }) : between_.Pop();
+      std::optional<HalfDone> half = Timed(&waited_lens_s, [&] {
+        return options_.live ? between_.PopUnless([&] { return pending && solved_; })
+                             : between_.Pop();
+      });
       if (stopping_) break;
       if (!half) {
         if (!pending || !solved_) break;  // The queue closed.
         // Live, idle and the solve ended: its calibration goes in effect now, not at the
         // next frame (up to a frame interval and that frame's boxes 1-9 later).
         std::unique_lock lock(solve_mutex_);
-        judged_between = Judge(*pending, &lock);
+        judged_between = Judge(*pending, &lock, &waited_solve_s);
         if (!judged_between) break;  // Stopping.
         pending.reset();
         {
@@ -326,7 +351,7 @@ void Runtime::MotionLoop() {
                                          : frame >= pending->frame + options_.judge_after_frames ||
                                                next_attempt_due();
         if (judge) {
-          std::optional<Judgement> judged = Judge(*pending, &lock);
+          std::optional<Judgement> judged = Judge(*pending, &lock, &waited_solve_s);
           if (!judged) break;  // Stopping.
           pending.reset();
           attach(std::move(*judged));
@@ -353,6 +378,9 @@ void Runtime::MotionLoop() {
     Fail(std::current_exception());
   }
   CountThreadCpu(&RuntimeStats::motion_cpu_s);
+  std::lock_guard lock(stats_mutex_);
+  stats_.motion_wait_lens_s = waited_lens_s;
+  stats_.motion_wait_solve_s = waited_solve_s;
 }
 
 void Runtime::SolveLoop() {

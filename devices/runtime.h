@@ -145,6 +145,13 @@ struct RuntimeStats {
   // estimates, on threads of their own, not counted), boxes 4-9, box 10's worker.
   // Against the wall-clock time they tell which thread limits the frames per second.
   double lens_cpu_s = 0.0, motion_cpu_s = 0.0, solve_cpu_s = 0.0;
+  // Wall-clock seconds the per-frame threads spent blocked, by what they waited for, filled
+  // in as they end: boxes 1-3 for frames to come in, and for boxes 4-9 (offline the
+  // calibration of the frame calibration_lag_frames back, or room in the queue between
+  // them); boxes 4-9 for boxes 1-3's next frame, and for box 10's result to judge. Beside
+  // the CPU times they say which thread holds the others up.
+  double lens_wait_input_s = 0.0, lens_wait_motion_s = 0.0;
+  double motion_wait_lens_s = 0.0, motion_wait_solve_s = 0.0;
 };
 
 class Runtime {
@@ -235,8 +242,10 @@ class Runtime {
   void LensLoop();
   void MotionLoop();
   // Takes box 10's result (waiting for it while `solve_lock`, held, is released), judges
-  // `pending` by it and puts the new calibration in effect. Nothing when stopping.
-  std::optional<Judgement> Judge(const Pending& pending, std::unique_lock<std::mutex>* solve_lock);
+  // `pending` by it and puts the new calibration in effect. Nothing when stopping. The
+  // wait's wall-clock seconds are added to `*waited`.
+  std::optional<Judgement> Judge(const Pending& pending, std::unique_lock<std::mutex>* solve_lock,
+                                 double* waited);
   void SolveLoop();
   CalibrationState StateFor(int64_t frame);
   void FeedAccel(int64_t t_ns);

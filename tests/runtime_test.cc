@@ -246,6 +246,54 @@ TEST(Runtime, EachThreadsCpuTimeIsCounted) {
   EXPECT_LE(stats.lens_cpu_s + stats.motion_cpu_s + stats.solve_cpu_s, process_s);
 }
 
+// What each per-frame thread waited for is counted where it waited: frames that come in
+// slowly leave boxes 1-3 waiting for them, and boxes 4-9 for boxes 1-3; boxes 4-9 held up
+// leave boxes 1-3 waiting for them; a slow box 10 judged a frame after its attempt leaves
+// boxes 4-9 waiting for it. Lower bounds only: a loaded machine adds waits of every kind.
+TEST(Runtime, EachThreadsWaitsAreCounted) {
+  const std::unique_ptr<Sequence> sequence = Walk(2.0);
+  const AccelCalibration accel = AccelOf(*sequence);
+  const CameraIntrinsics truth = sequence->ground_truth()->front().intrinsics;
+  const auto frames = double(sequence->frame_count());
+  {
+    SCOPED_TRACE("a frame every 40 ms");
+    constexpr double kGapS = 0.04;
+    Runtime runtime(*sequence->session().premission_calibration, accel, {}, {});
+    for (size_t i = 0; i < sequence->frame_count(); ++i) {
+      runtime.PushFrame(sequence->frame_time_ns(i), sequence->LoadFrame(i));
+      std::this_thread::sleep_for(std::chrono::duration<double>(kGapS));
+    }
+    runtime.Finish();
+    const RuntimeStats stats = runtime.stats();
+    EXPECT_GT(stats.lens_wait_input_s, 0.25 * kGapS * (frames - 1));
+    EXPECT_GT(stats.motion_wait_lens_s, 0.25 * kGapS * (frames - 1));
+  }
+  {
+    SCOPED_TRACE("boxes 4-9 held 0.4 s on the first frame, box 10 taking 0.2 s");
+    constexpr double kHeldS = 0.4, kSolveS = 0.2;
+    RuntimeOptions options;
+    options.judge_after_frames = 1;
+    const Runtime::Solver stand_in = JitteredStandIn(truth, 0);
+    Runtime runtime(
+        *sequence->session().premission_calibration, accel, {}, options,
+        [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+          if (snapshot->index == 0)
+            std::this_thread::sleep_for(std::chrono::duration<double>(kHeldS));
+        },
+        [&](const CalibrationJob& job) {
+          std::this_thread::sleep_for(std::chrono::duration<double>(kSolveS));
+          return stand_in(job);
+        });
+    PushSequence(*sequence, &runtime);
+    const RuntimeStats stats = runtime.stats();
+    ASSERT_GT(stats.judged, 0);
+    // Boxes 1-3 run ahead by the lag, then wait for the rest of the hold.
+    EXPECT_GT(stats.lens_wait_motion_s, 0.5 * kHeldS);
+    // Each judgement comes a frame after its attempt, well within the solve's time.
+    EXPECT_GT(stats.motion_wait_solve_s, 0.5 * kSolveS * stats.judged);
+  }
+}
+
 // Offline, an attempt is judged judge_after_frames after the frame it was made on, or on
 // the frame before the next attempt is due if that comes sooner: an attempt interval
 // shorter than the judging delay is kept, not stretched to it.

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `autocal bench` (issue #6): the whole pipeline timed on a simulated recording, its figures
-# printed and written as JSON; --loop plays a short rendering over and over for a long
+# (with each thread's CPU and waits) printed and written as JSON; --loop plays a short rendering over and over for a long
 # session's memory; --live plays the frames as a camera in real time; --history keeps the
 # attempts; --settings and --set change the pipeline's options, reported with the figures;
 # bad arguments are refused with the reason.
@@ -35,6 +35,15 @@ other=$(field other_threads_cpu_s "$dir/plain.json")
 awk -v c="$other" 'BEGIN { exit !(c > 0) }' || fail "CPU of the other threads: '$other' s"
 grep -qE "^CPU by thread: .*, other threads [0-9.]+ s \([0-9.]+ ms a frame\)$" "$dir/plain.txt" ||
   fail "CPU of the other threads not printed: $(grep CPU "$dir/plain.txt")"
+# Where the per-frame threads waited, printed and in the JSON: within the run's time.
+for wait in "boxes 1-3 for frames" "boxes 1-3 for boxes 4-9" "boxes 4-9 for boxes 1-3" \
+  "boxes 4-9 for box 10"; do
+  waited=$(grep -oE "\"$wait\": [0-9.e+-]+" "$dir/plain.json" | grep -oE '[0-9.e+-]+$')
+  awk -v s="$waited" -v w="$wall" 'BEGIN { exit !(s != "" && s >= 0 && s <= w) }' ||
+    fail "wait of $wait: '$waited' s in $wall s"
+  grep -qE "^waited: (.*, )?$wait [0-9.]+ s(,|$)" "$dir/plain.txt" ||
+    fail "wait of $wait not printed: $(grep waited "$dir/plain.txt")"
+done
 grep -q '"settings": {}' "$dir/plain.json" || fail "no settings changed in the JSON"
 
 # Box 10 tried twice as often: more attempts than with the defaults, and the change said.
