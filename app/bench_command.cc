@@ -112,6 +112,16 @@ std::string StatsJson(const TimingStats& stats) {
          ", \"count\": " + std::to_string(stats.count) + "}";
 }
 
+// Seconds by name (a thread's, or a thread's wait), as a JSON object in the given order.
+std::string SecondsJson(const std::vector<std::pair<std::string, double>>& seconds) {
+  std::string json = "{";
+  for (size_t i = 0; i < seconds.size(); ++i) {
+    json += std::string(i ? ", " : "") + JsonString(seconds[i].first) + ": " +
+            JsonNumber(seconds[i].second);
+  }
+  return json + "}";
+}
+
 }  // namespace
 
 int Bench(const QStringList& arguments) {
@@ -336,19 +346,9 @@ int Bench(const QStringList& arguments) {
       json += "  \"wall_seconds\": " + JsonNumber(report.wall_seconds) + ",\n";
       json += "  \"fps\": " + JsonNumber(report.fps) + ",\n";
       json += "  \"cores_busy\": " + JsonNumber(cores_busy) + ",\n";
-      json += "  \"thread_cpu_s\": {";
-      for (size_t i = 0; i < report.thread_cpu_s.size(); ++i) {
-        json += std::string(i ? ", " : "") + JsonString(report.thread_cpu_s[i].first) + ": " +
-                JsonNumber(report.thread_cpu_s[i].second);
-      }
-      json += "},\n";
+      json += "  \"thread_cpu_s\": " + SecondsJson(report.thread_cpu_s) + ",\n";
       json += "  \"other_threads_cpu_s\": " + JsonNumber(other_cpu_s) + ",\n";
-      json += "  \"thread_wait_s\": {";
-      for (size_t i = 0; i < report.thread_wait_s.size(); ++i) {
-        json += std::string(i ? ", " : "") + JsonString(report.thread_wait_s[i].first) + ": " +
-                JsonNumber(report.thread_wait_s[i].second);
-      }
-      json += "},\n";
+      json += "  \"thread_wait_s\": " + SecondsJson(report.thread_wait_s) + ",\n";
       json += "  \"judge_after_frames\": " + std::to_string(judge_after) + ",\n";
       json += "  \"settings\": {";
       for (size_t i = 0; i < changed.size(); ++i) {

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # `autocal bench` (issue #6): the whole pipeline timed on a simulated recording, its figures
-# (with each thread's CPU and waits) printed and written as JSON; --loop plays a short rendering over and over for a long
-# session's memory; --live plays the frames as a camera in real time; --history keeps the
-# attempts; --settings and --set change the pipeline's options, reported with the figures;
-# bad arguments are refused with the reason.
+# (with each thread's CPU and waits) printed and written as JSON; --loop plays a short
+# rendering over and over for a long session's memory; --live plays the frames as a camera
+# in real time; --history keeps the attempts; --settings and --set change the pipeline's
+# options, reported with the figures; bad arguments are refused with the reason.
 set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
