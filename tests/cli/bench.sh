@@ -20,13 +20,18 @@ for box in lines flow planes frame; do
 done
 awk -v fps="$(field fps "$dir/plain.json")" 'BEGIN { exit !(fps > 0) }' || fail "no frame rate"
 grep -q '^settings: the defaults$' "$dir/plain.txt" || fail "the defaults not reported"
-# Each pipeline thread's CPU time, printed and in the JSON: some, and no more than the run's
-# wall-clock time.
+# Seconds of the JSON named $1 ("some": more than none), no more than the run's wall-clock time.
 wall=$(field wall_seconds "$dir/plain.json")
+seconds_within_run() {
+  local s
+  s=$(grep -oE "\"$1\": [0-9.e+-]+" "$dir/plain.json" | grep -oE '[0-9.e+-]+$')
+  awk -v s="$s" -v some="$2" -v w="$wall" \
+    'BEGIN { exit !(s != "" && (some == "some" ? s > 0 : s >= 0) && s <= w) }' ||
+    fail "$1: '$s' s in $wall s"
+}
+# Each pipeline thread's CPU time, printed and in the JSON.
 for thread in "boxes 1-3" "boxes 4-9" "box 10"; do
-  cpu=$(grep -oE "\"$thread\": [0-9.e+-]+" "$dir/plain.json" | grep -oE '[0-9.e+-]+$')
-  awk -v c="$cpu" -v w="$wall" 'BEGIN { exit !(c > 0 && c <= w) }' ||
-    fail "CPU of $thread: '$cpu' s in $wall s"
+  seconds_within_run "$thread" some
   grep -qE "^CPU by thread: .*$thread [0-9.]+ s \([0-9.]+ ms a frame\)" "$dir/plain.txt" ||
     fail "CPU of $thread not printed: $(grep CPU "$dir/plain.txt")"
 done
@@ -35,12 +40,10 @@ other=$(field other_threads_cpu_s "$dir/plain.json")
 awk -v c="$other" 'BEGIN { exit !(c > 0) }' || fail "CPU of the other threads: '$other' s"
 grep -qE "^CPU by thread: .*, other threads [0-9.]+ s \([0-9.]+ ms a frame\)$" "$dir/plain.txt" ||
   fail "CPU of the other threads not printed: $(grep CPU "$dir/plain.txt")"
-# Where the per-frame threads waited, printed and in the JSON: within the run's time.
+# Where the per-frame threads waited, printed and in the JSON (none at all is possible).
 for wait in "boxes 1-3 for frames" "boxes 1-3 for boxes 4-9" "boxes 4-9 for boxes 1-3" \
   "boxes 4-9 for box 10"; do
-  waited=$(grep -oE "\"$wait\": [0-9.e+-]+" "$dir/plain.json" | grep -oE '[0-9.e+-]+$')
-  awk -v s="$waited" -v w="$wall" 'BEGIN { exit !(s != "" && s >= 0 && s <= w) }' ||
-    fail "wait of $wait: '$waited' s in $wall s"
+  seconds_within_run "$wait" any
   grep -qE "^waited: (.*, )?$wait [0-9.]+ s(,|$)" "$dir/plain.txt" ||
     fail "wait of $wait not printed: $(grep waited "$dir/plain.txt")"
 done
