@@ -269,8 +269,8 @@ TEST(Runtime, EachThreadsWaitsAreCounted) {
     EXPECT_GT(stats.motion_wait_lens_s, 0.25 * kGapS * (frames - 1));
   }
   {
-    SCOPED_TRACE("boxes 4-9 held 0.4 s on the first frame, box 10 taking 0.2 s");
-    constexpr double kHeldS = 0.4, kSolveS = 0.2;
+    SCOPED_TRACE("boxes 4-9 held 0.6 s on the first frame, box 10 taking 0.2 s");
+    constexpr double kHeldS = 0.6, kSolveS = 0.2;
     RuntimeOptions options;
     options.judge_after_frames = 1;
     const Runtime::Solver stand_in = JitteredStandIn(truth, 0);
