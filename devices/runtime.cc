@@ -256,10 +256,11 @@ void Runtime::FeedAccel(int64_t t_ns) {
 std::optional<Runtime::Judgement> Runtime::Judge(const Pending& pending,
                                                  std::unique_lock<std::mutex>* solve_lock,
                                                  double* waited) {
-  const auto waiting = Clock::now();
-  solve_changed_.wait(*solve_lock, [&] { return stopping_ || solve_result_.has_value(); });
-  *waited += 1e-3 * MillisecondsSince(waiting);
-  if (!solve_result_) return std::nullopt;  // Stopping.
+  const bool solved = Timed(waited, [&] {
+    solve_changed_.wait(*solve_lock, [&] { return stopping_ || solve_result_.has_value(); });
+    return solve_result_.has_value();
+  });
+  if (!solved) return std::nullopt;  // Stopping.
   const SelfCalibrationResult result = std::move(*solve_result_);
   solve_result_.reset();
   solved_ = false;
