@@ -8,6 +8,7 @@
 #include <mutex>
 #include <span>
 
+#include "devices/history_writer.h"
 #include "pipeline/error.h"
 #include "pipeline/history_store.h"
 #include "pipeline/stopwatch.h"
@@ -95,6 +96,16 @@ std::unique_ptr<HistoryStore> OpenNewHistory(const RunSettings& settings) {
   }
   return store;
 }
+
+namespace {
+
+// The writer of settings.history_path, opened for a new run; null when there is none.
+std::unique_ptr<HistoryWriter> StartHistoryWriter(const RunSettings& settings) {
+  std::unique_ptr<HistoryStore> store = OpenNewHistory(settings);
+  return store ? std::make_unique<HistoryWriter>(std::move(store)) : nullptr;
+}
+
+}  // namespace
 
 void SummarizeHistory(const CalibrationHistory& history, int64_t end_ns, RunReport* report) {
   report->final = history.Current(end_ns);
@@ -187,7 +198,7 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   report.prior = StartingCalibration(report.input, session, settings.prior);
   AccelCalibration accel;
   accel.cam_from_accel = session.cam_from_accel;
-  const std::unique_ptr<HistoryStore> store = OpenNewHistory(settings);
+  const std::unique_ptr<HistoryWriter> history = StartHistoryWriter(settings);
 
   const std::vector<GroundTruthFrame>* truth = sequence.ground_truth();
   if (truth && truth->size() != sequence.frame_count()) truth = nullptr;
@@ -200,7 +211,7 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   // Runs on the runtime's boxes 4-9 thread, frame after frame.
   const auto on_frame = [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
     log.Add(*snapshot);
-    if (snapshot->attempt && store) store->Record(runtime->history());
+    if (snapshot->attempt && history) history->Submit(runtime->history());
     if (progress) {
       progress({log.frames, report.frames,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
@@ -210,6 +221,7 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
                                       on_frame, settings.solve);
   PushSequence(sequence, runtime.get());
+  if (history) history->Finish();
   CompleteReport(*runtime, std::move(log), truth, settings, start, &report);
   return report;
 }
@@ -226,7 +238,7 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
     report.prior = StartingCalibration(report.input, session, settings.prior);
     AccelCalibration accel;
     accel.cam_from_accel = session.cam_from_accel;
-    const std::unique_ptr<HistoryStore> store = OpenNewHistory(settings);
+    const std::unique_ptr<HistoryWriter> history = StartHistoryWriter(settings);
 
     // A recording played in real time keeps its times: each processed frame's truth is the
     // recorded frame at that time.
@@ -255,7 +267,7 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
       if (const auto found = truth_index.find(snapshot->t_ns); found != truth_index.end()) {
         processed_truth.push_back((*truth)[found->second]);
       }
-      if (snapshot->attempt && store) store->Record(runtime->history());
+      if (snapshot->attempt && history) history->Submit(runtime->history());
       std::lock_guard lock(latest_mutex);
       latest = snapshot;
     };
@@ -328,7 +340,10 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
     runtime->Finish();
     // Live, an attempt whose solve ends after the last frame is judged with no snapshot to
     // carry it: the file gets it here.
-    if (store) store->Record(runtime->history());
+    if (history) {
+      history->Submit(runtime->history());
+      history->Finish();
+    }
     report_progress();
 
     const SourceStats stats = source.stats();

@@ -6,6 +6,7 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <type_traits>
 
 #include <sqlite3.h>
 
@@ -343,40 +344,78 @@ HistoryStore::~HistoryStore() = default;
 HistoryStore::HistoryStore(HistoryStore&&) noexcept = default;
 HistoryStore& HistoryStore::operator=(HistoryStore&&) noexcept = default;
 
+HistoryRows RowsSince(const CalibrationHistory& history, size_t attempt, size_t alarm,
+                      size_t regime) {
+  const auto since = [](const auto& rows, size_t first) {
+    using Rows = std::decay_t<decltype(rows)>;
+    return first < rows.size() ? Rows(rows.begin() + ptrdiff_t(first), rows.end()) : Rows();
+  };
+  return {history.premission(),
+          history.options(),
+          attempt,
+          alarm,
+          regime,
+          since(history.attempts(), attempt),
+          since(history.alarms(), alarm),
+          since(history.regimes(), regime)};
+}
+
 void HistoryStore::Record(const CalibrationHistory& history) {
+  Append(history.premission(), history.options(), history.attempts(), 0, history.alarms(), 0,
+         history.regimes(), 0);
+}
+
+void HistoryStore::Record(const HistoryRows& rows) {
+  Append(rows.premission, rows.options, rows.attempts, rows.first_attempt, rows.alarms,
+         rows.first_alarm, rows.regimes, rows.first_regime);
+}
+
+void HistoryStore::Append(const CameraIntrinsics& premission, const AcceptanceOptions& options,
+                          std::span<const AttemptRecord> attempts, size_t first_attempt,
+                          std::span<const Alarm> alarms, size_t first_alarm,
+                          std::span<const Regime> regimes, size_t first_regime) {
   sqlite3* db = db_.get();
   Execute(db, "BEGIN IMMEDIATE", path_);
   try {
-    const auto count = [&](const char* table) {
-      return size_t(QueryInt(db, std::string("SELECT count(*) FROM ") + table, path_));
-    };
-    const size_t attempts = count("attempts"), alarms = count("alarms"), regimes = count("regimes");
     const auto different = [&](const std::string& why) {
       return Error(path_, 0, "holds a different calibration history: " + why);
     };
-    if (count("session") == 0) {
+    // How many of `table`'s rows the file holds, which must be at least those before
+    // `first` and at most those up to the end of `rows`.
+    const auto held = [&](const char* table, size_t first, size_t rows) {
+      const auto count =
+          size_t(QueryInt(db, std::string("SELECT count(*) FROM ") + table, path_));
+      if (count > first + rows) throw different("it has more rows than this history");
+      if (count < first) {
+        throw Error(path_, 0,
+                    "lacks rows of this history: it holds " + std::to_string(count) + " " +
+                        table + ", the rows to append begin at " + std::to_string(first));
+      }
+      return count - first;
+    };
+    const size_t attempts_held = held("attempts", first_attempt, attempts.size());
+    const size_t alarms_held = held("alarms", first_alarm, alarms.size());
+    const size_t regimes_held = held("regimes", first_regime, regimes.size());
+    if (QueryInt(db, "SELECT count(*) FROM session", path_) == 0) {
       Statement insert(db, "INSERT INTO session (key, value) VALUES (?, ?)", path_);
-      ForEachIntrinsic(history.premission(), [&](const char* name, auto value) {
+      ForEachIntrinsic(premission, [&](const char* name, auto value) {
         insert.Bind(std::string("premission.") + name).Bind(double(value)).Run();
       });
-      ForEachOption(history.options(), [&](const char* name, auto value) {
+      ForEachOption(options, [&](const char* name, auto value) {
         insert.Bind(std::string("options.") + name).Bind(double(value)).Run();
       });
-    } else if (!(ReadSession(db, path_).premission == history.premission())) {
+    } else if (!(ReadSession(db, path_).premission == premission)) {
       throw different("another pre-mission calibration");
     }
-    if (attempts > history.attempts().size() || alarms > history.alarms().size() ||
-        regimes > history.regimes().size()) {
-      throw different("it has more rows than this history");
-    }
-    if (attempts > 0 &&
-        QueryInt(db, "SELECT t_ns FROM attempts WHERE id = " + std::to_string(attempts - 1),
-                 path_) != history.attempts()[attempts - 1].t_ns) {
+    if (attempts_held > 0 &&
+        QueryInt(db,
+                 "SELECT t_ns FROM attempts WHERE id = " +
+                     std::to_string(first_attempt + attempts_held - 1),
+                 path_) != attempts[attempts_held - 1].t_ns) {
       throw different("its last attempt is not this history's");
     }
 
-    for (size_t i = regimes; i < history.regimes().size(); ++i) {
-      const Regime& r = history.regimes()[i];
+    for (const Regime& r : regimes.subspan(regimes_held)) {
       Statement s(db,
                   "INSERT INTO regimes (" + kRegimeColumns + ") VALUES (" +
                       Placeholders(kRegimeColumns) + ")",
@@ -391,11 +430,8 @@ void HistoryStore::Record(const CalibrationHistory& history) {
       BindCamera(&s, r.start);
       s.Run();
     }
-    for (size_t i = attempts; i < history.attempts().size(); ++i) {
-      InsertAttempt(db, path_, history.attempts()[i]);
-    }
-    for (size_t i = alarms; i < history.alarms().size(); ++i) {
-      const Alarm& a = history.alarms()[i];
+    for (const AttemptRecord& a : attempts.subspan(attempts_held)) InsertAttempt(db, path_, a);
+    for (const Alarm& a : alarms.subspan(alarms_held)) {
       Statement s(db,
                   "INSERT INTO alarms (id, t_ns, kind, attempt_id, description) "
                   "VALUES (?, ?, ?, ?, ?)",

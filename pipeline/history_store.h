@@ -5,7 +5,9 @@
 // is in docs/history.md.
 #pragma once
 
+#include <cstddef>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -27,6 +29,21 @@ struct StoredHistory {
   std::vector<Regime> regimes;
 };
 
+// The rows of one history from given indices on (the ids of its attempts, alarms and
+// regimes are their indices): a part of it to append to a file.
+struct HistoryRows {
+  CameraIntrinsics premission;
+  AcceptanceOptions options;
+  size_t first_attempt = 0, first_alarm = 0, first_regime = 0;
+  std::vector<AttemptRecord> attempts;
+  std::vector<Alarm> alarms;
+  std::vector<Regime> regimes;
+};
+
+// What `history` holds from these indices on.
+HistoryRows RowsSince(const CalibrationHistory& history, size_t attempt, size_t alarm,
+                      size_t regime);
+
 class HistoryStore {
  public:
   enum class Mode {
@@ -45,6 +62,10 @@ class HistoryStore {
   // and the alarm and the regime it raised), in one transaction. The file must hold the
   // beginning of this same history, or nothing; throws Error otherwise or on a write error.
   void Record(const CalibrationHistory& history);
+  // The same for a part of a history: the file must hold every row before the first of
+  // each table's rows here (and those of these it holds must be the same attempts), so
+  // that parts recorded in turn, each overlapping the one before, make up the history.
+  void Record(const HistoryRows& rows);
 
   // Everything in the file. Throws Error naming the file on malformed rows.
   StoredHistory Load() const;
@@ -52,6 +73,11 @@ class HistoryStore {
   const std::string& path() const { return path_; }
 
  private:
+  void Append(const CameraIntrinsics& premission, const AcceptanceOptions& options,
+              std::span<const AttemptRecord> attempts, size_t first_attempt,
+              std::span<const Alarm> alarms, size_t first_alarm,
+              std::span<const Regime> regimes, size_t first_regime);
+
   struct Closer {
     void operator()(sqlite3* db) const;
   };

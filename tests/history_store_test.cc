@@ -4,13 +4,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cmath>
+#include <future>
 #include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include "devices/history_writer.h"
 #include "pipeline/error.h"
 #include "tests/test_util.h"
 
@@ -319,6 +322,106 @@ TEST(HistoryStoreTest, AnotherHistoryIsNotAppended) {
   for (int s = 1; s <= 4; ++s) later.Judge((s + 100) * kSecond, stream.Next(s));
   EXPECT_THROW(store.Record(later), Error) << "same lens, other attempts";
   EXPECT_EQ(store.Load().attempts.size(), 3u) << "nothing of them was written";
+}
+
+// Parts of a history, each from the last attempt of the part before (as HistoryWriter hands
+// them over), make up the history; a part that does not join the file's rows is refused.
+TEST(HistoryStoreTest, PartsRecordedInTurnMakeUpTheHistory) {
+  const test::TempDir dir;
+  const std::string path = dir / "history.db";
+  CalibrationHistory history(test::SonnarLikeCamera(), UnusualOptions());
+  StreamMaker stream;
+  HistoryStore store(path);
+  size_t attempts = 0, alarms = 0, regimes = 0;
+  for (int s = 1; s <= 40; ++s) {
+    history.Judge(s * kSecond, stream.Next(s));
+    if (s % 3 != 0 && s != 40) continue;
+    store.Record(RowsSince(history, attempts > 0 ? attempts - 1 : 0, alarms, regimes));
+    attempts = history.attempts().size();
+    alarms = history.alarms().size();
+    regimes = history.regimes().size();
+  }
+  ASSERT_EQ(history.regimes().size(), 2u);
+  ASSERT_FALSE(history.alarms().empty());
+  ExpectSameHistory(history, store.Load());
+
+  const std::string gap = dir / "gap.db";
+  HistoryStore gapped(gap);
+  try {
+    gapped.Record(RowsSince(history, 5, 0, 0));
+    ADD_FAILURE() << "a part beginning at attempt 5 was appended to an empty file";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("lacks rows"), std::string::npos) << e.what();
+  }
+  gapped.Record(RowsSince(history, 0, 0, 0));
+  CalibrationHistory other(test::SonnarLikeCamera(), UnusualOptions());
+  for (int s = 1; s <= 41; ++s) other.Judge((s + 100) * kSecond, stream.Next(s));
+  EXPECT_THROW(gapped.Record(RowsSince(other, 39, 0, 0)), Error)
+      << "its attempt 39 is not the file's";
+  EXPECT_EQ(gapped.Load().attempts.size(), 40u);
+}
+
+// Submit hands rows over without waiting for the disk: with the file locked by another
+// connection every submit returns, and the rows land once the lock is let go. (Were
+// Submit to write, it would wait the store's 5 s busy timeout and throw.)
+TEST(HistoryWriterTest, SubmitNeverWaitsForTheFile) {
+  const test::TempDir dir;
+  const std::string path = dir / "history.db";
+  auto store = std::make_unique<HistoryStore>(path);
+  std::atomic<int> commits{0};
+  HistoryWriter writer(std::move(store), [&] { ++commits; });
+  std::promise<void> release;
+  test::HoldSqliteWriteLock(path, release.get_future().share()).wait();
+
+  CalibrationHistory history(test::SonnarLikeCamera(), UnusualOptions());
+  StreamMaker stream;
+  for (int s = 1; s <= 40; ++s) {
+    history.Judge(s * kSecond, stream.Next(s));
+    writer.Submit(history);
+  }
+  EXPECT_EQ(commits, 0) << "nothing could be committed while the lock was held";
+  release.set_value();
+  writer.Finish();
+  EXPECT_GE(commits, 1);
+  EXPECT_LE(commits, 2) << "what came while a commit waited goes into the next";
+  ExpectSameHistory(history, HistoryStore(path, HistoryStore::Mode::kOpenExisting).Load());
+}
+
+// A write that fails (here another program's row in the file) is reported by the next
+// Submit or Finish, and nothing is written after it.
+TEST(HistoryWriterTest, AFailedWriteIsReportedAndStopsTheWriting) {
+  const test::TempDir dir;
+  const std::string path = dir / "history.db";
+  HistoryWriter writer(std::make_unique<HistoryStore>(path));
+  CalibrationHistory history(test::SonnarLikeCamera(), UnusualOptions());
+  StreamMaker stream;
+  for (int s = 1; s <= 3; ++s) {
+    history.Judge(s * kSecond, stream.Next(s));
+    writer.Submit(history);
+  }
+  writer.Finish();
+  RunSql(path,
+         "INSERT INTO attempts SELECT 3, t_ns + 1, verdict, reason, regime_id, usable, "
+         "solver_report, width, height, fx, fy, cx, cy, k1, k2, p1, p2, k3, covariance, "
+         "free_parameters, rms_px, material, frames, planes, points, observations, lines, "
+         "rotation_spread_deg, max_sigma, trend_fx, trend_fy, trend_cx, trend_cy, trend_k1, "
+         "trend_k2, trend_p1, trend_p2, trend_k3, out_fx, out_fy, out_cx, out_cy, out_k1, "
+         "out_k2, out_p1, out_p2, out_k3, out_sigma_fx, out_sigma_fy, out_sigma_cx, "
+         "out_sigma_cy, out_sigma_k1, out_sigma_k2, out_sigma_p1, out_sigma_p2, out_sigma_k3 "
+         "FROM attempts WHERE id = 2");
+  history.Judge(4 * kSecond, stream.Next(4));
+  writer.Submit(history);
+  try {
+    writer.Finish();
+    ADD_FAILURE() << "the file's foreign attempt 3 went unnoticed";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_NE(std::string(e.what()).find("different calibration history"), std::string::npos)
+        << e.what();
+  }
+  history.Judge(5 * kSecond, stream.Next(5));
+  EXPECT_THROW(writer.Submit(history), Error);
+  EXPECT_EQ(HistoryStore(path).Load().attempts.size(), 4u) << "3 written, and the foreign one";
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -20,9 +21,12 @@
 
 #include <gtest/gtest.h>
 
+#include "devices/in_memory_sequence.h"
 #include "devices/offline_runner.h"
 #include "devices/runtime.h"
 #include "devices/sim/simulator.h"
+#include "devices/source.h"
+#include "pipeline/history_store.h"
 #include "pipeline/calibration_error.h"
 #include "test_util.h"
 
@@ -158,6 +162,43 @@ TEST(Runtime, TwoOfflineRunsGiveTheSameSummary) {
     ASSERT_EQ(first.truth->errors[i].fx_percent, second.truth->errors[i].fx_percent) << i;
     ASSERT_EQ(first.truth->errors[i].cx_px, second.truth->errors[i].cx_px) << i;
   }
+}
+
+// Live, the history is written on a thread of its own: with the file's write lock held by
+// another program for the first 4 s of a walk played as a camera, boxes 4-9 go on judging
+// and the pipeline keeps up (written on their thread, the first attempt waited there for
+// the lock and 66 frames were dropped), and every attempt is in the file once the
+// lock is let go.
+TEST(Runtime, LiveRunKeepsUpWhileTheHistoryFileIsLocked) {
+  auto walk = std::make_unique<InMemorySequence>(Walk(6.0));
+  const CameraIntrinsics truth = walk->ground_truth()->front().intrinsics;
+  const int64_t walk_start_ns = walk->frame_time_ns(0);
+  const test::TempDir dir;
+  RunSettings settings;
+  settings.history_path = dir / "history.sqlite";
+  settings.solve = JitteredStandIn(truth, 0);
+  { HistoryStore created(settings.history_path); }
+  SourceOptions play;
+  play.real_time = true;
+  const std::unique_ptr<FrameSource> source = PlaySequence(std::move(walk), play);
+
+  std::promise<void> release;
+  test::HoldSqliteWriteLock(settings.history_path, release.get_future().share()).wait();
+  std::thread releaser([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(4000));
+    release.set_value();
+  });
+  const RunReport report = RunSource(*source, settings, {});
+  releaser.join();
+
+  ASSERT_TRUE(report.live);
+  EXPECT_EQ(report.live->ended_by, "the source ended");
+  const StoredHistory stored = HistoryStore(settings.history_path).Load();
+  ASSERT_GE(stored.attempts.size(), 2u);
+  EXPECT_LT(stored.attempts[1].t_ns - walk_start_ns, 3'500'000'000)
+      << "two attempts judged while the file was locked";
+  EXPECT_LT(report.live->pipeline_dropped, 10u) << "frames the pipeline dropped";
+  EXPECT_EQ(stored.attempts.size(), size_t(report.attempts));
 }
 
 // Offline, boxes 1-3 run ahead of boxes 4-9 as far as calibration_lag_frames lets them,

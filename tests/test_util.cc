@@ -6,8 +6,10 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 namespace autocal::test {
 
@@ -118,6 +120,22 @@ std::string ReadTextFile(const std::filesystem::path& path) {
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+std::future<void> HoldSqliteWriteLock(const std::string& path, std::shared_future<void> release) {
+  std::promise<void> held;
+  std::future<void> locked = held.get_future();
+  std::thread([path, release, held = std::move(held)]() mutable {
+    sqlite3* db = nullptr;
+    const bool locking = sqlite3_open(path.c_str(), &db) == SQLITE_OK &&
+                         sqlite3_exec(db, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr) == SQLITE_OK;
+    EXPECT_TRUE(locking) << path << ": " << sqlite3_errmsg(db);
+    held.set_value();
+    release.wait();
+    sqlite3_exec(db, "COMMIT", nullptr, nullptr, nullptr);
+    sqlite3_close(db);
+  }).detach();
+  return locked;
 }
 
 }  // namespace autocal::test

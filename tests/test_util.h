@@ -2,6 +2,7 @@
 #pragma once
 
 #include <filesystem>
+#include <future>
 #include <string>
 #include <vector>
 
@@ -55,5 +56,10 @@ bool ExpectJacobianMatchesCentralDifferences(const ceres::CostFunction& cost,
 // Writes `contents` to `path`, creating parent folders.
 void WriteTextFile(const std::filesystem::path& path, const std::string& contents);
 std::string ReadTextFile(const std::filesystem::path& path);
+
+// Takes the write lock of the SQLite file `path` on a connection of its own, as another
+// program (a backup, sqlite3 in a shell) may, and holds it until `release` is ready. The
+// future returned is ready once the lock is held.
+std::future<void> HoldSqliteWriteLock(const std::string& path, std::shared_future<void> release);
 
 }  // namespace autocal::test

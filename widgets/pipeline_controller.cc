@@ -15,6 +15,7 @@
 #include <QtConcurrent/QtConcurrentRun>
 #include <opencv2/core.hpp>
 
+#include "devices/history_writer.h"
 #include "devices/offline_runner.h"
 #include "devices/runtime.h"
 #include "devices/sequence.h"
@@ -136,24 +137,23 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
         setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), kPipelineNiceness);
 #endif
         try {
-          std::unique_ptr<HistoryStore> store;
-          if (!history_file.empty()) store = std::make_unique<HistoryStore>(history_file);
+          // The history table is told of the file once its first rows are in it.
+          std::unique_ptr<HistoryWriter> history;
+          if (!history_file.empty()) {
+            history = std::make_unique<HistoryWriter>(
+                std::make_unique<HistoryStore>(history_file),
+                [this, generation, path = QString::fromStdString(history_file),
+                 told = false]() mutable {
+                  if (std::exchange(told, true)) return;
+                  QMetaObject::invokeMethod(
+                      this, [this, generation, path] { onAttemptRecorded(generation, path); },
+                      Qt::QueuedConnection);
+                });
+          }
           std::unique_ptr<Runtime> runtime;
-          bool recorded = false;
           // On the runtime's boxes 4-9 thread, frame after frame.
           const auto on_frame = [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
-            if (snapshot->attempt && store) {
-              store->Record(runtime->history());
-              if (!recorded) {
-                recorded = true;
-                QMetaObject::invokeMethod(
-                    this,
-                    [this, generation, path = QString::fromStdString(history_file)] {
-                      onAttemptRecorded(generation, path);
-                    },
-                    Qt::QueuedConnection);
-              }
-            }
+            if (snapshot->attempt && history) history->Submit(runtime->history());
             QMetaObject::invokeMethod(
                 this, [this, generation, snapshot] { onSnapshot(generation, snapshot); },
                 Qt::QueuedConnection);
@@ -173,6 +173,7 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
             Run* run_;
           } published(run, runtime.get());
           PushSequence(*sequence, runtime.get(), &run->stop);
+          if (history) history->Finish();
         } catch (const std::exception& e) {
           error = QString::fromStdString(e.what());
         }
