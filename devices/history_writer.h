@@ -40,8 +40,7 @@ class HistoryWriter {
   const std::string& path() const { return store_->path(); }
 
  private:
-  void Write();
-  void ThrowIfFailed();
+  void Write();  // The writer thread.
 
   const std::unique_ptr<HistoryStore> store_;
   const Committed committed_;
