@@ -1,7 +1,8 @@
 // Writes a calibration history to its SQLite file on a thread of its own, so that the
 // thread judging attempts (the runtime's boxes 4-9) never waits for the disk: a commit
-// with full sync waits for the storage to flush, which on a vest's SD card or a file
-// another process holds locked takes from milliseconds to seconds. See docs/history.md.
+// with full sync waits for the storage to flush (2.6 ms median, 301 ms at worst on the
+// 60 s office walk here), and for another program's write lock on the file up to the
+// store's 5 s busy timeout. See docs/history.md.
 #pragma once
 
 #include <condition_variable>
