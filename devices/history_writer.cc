@@ -60,13 +60,10 @@ void HistoryWriter::Write() {
   std::unique_lock lock(mutex_);
   while (true) {
     changed_.wait(lock, [&] { return stopping_ || pending_; });
-    if (!pending_ || failure_) {
-      if (stopping_) return;
-      pending_.reset();
-      continue;
-    }
+    if (!pending_) return;  // Stopping, with everything written.
     const HistoryRows rows = std::move(*pending_);
     pending_.reset();
+    if (failure_) continue;  // Nothing is written after a failed write.
     writing_ = true;
     lock.unlock();
     std::exception_ptr failure;

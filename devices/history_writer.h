@@ -38,8 +38,6 @@ class HistoryWriter {
   // Waits until everything submitted is in the file. Throws the Error a write stopped on.
   void Finish();
 
-  const std::string& path() const { return store_->path(); }
-
  private:
   void Write();  // The writer thread.
 
