@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <csignal>
 #include <cstdio>
 
 #include "pipeline/error.h"
@@ -9,6 +10,28 @@
 #include "pipeline/self_calibration.h"
 
 namespace autocal::cli {
+
+namespace {
+
+StopRequest g_stop;
+
+void RequestStop(int signal) {
+  g_stop.signal = signal;
+  g_stop.requested = true;
+  std::signal(signal, SIG_DFL);
+}
+
+}  // namespace
+
+const StopRequest& CatchStopSignals() {
+  static_assert(std::atomic<bool>::is_always_lock_free && std::atomic<int>::is_always_lock_free,
+                "set from a signal handler");
+  std::signal(SIGINT, RequestStop);
+  std::signal(SIGTERM, RequestStop);
+  return g_stop;
+}
+
+const char* StopSignalName(int signal) { return signal == SIGTERM ? "SIGTERM" : "SIGINT"; }
 
 std::optional<int> Parse(QCommandLineParser& parser, const QString& name,
                          const QStringList& arguments) {

@@ -2,6 +2,7 @@
 // errors, and progress on stderr.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <optional>
@@ -44,6 +45,17 @@ std::optional<double> ReadoutMsOption(const QCommandLineParser& parser, QString*
 // when `options` (the user's settings) measure it with another readout.
 void ReportRollingShutter(const char* name, const SessionInfo& session,
                           const PipelineOptions& options);
+
+// SIGINT or SIGTERM from now on sets `requested` (and `signal`) instead of ending the program,
+// so that a long command stops cleanly with its files complete; a second one ends it as
+// usual.
+struct StopRequest {
+  std::atomic<bool> requested{false};
+  std::atomic<int> signal{0};
+};
+const StopRequest& CatchStopSignals();
+// "SIGINT" or "SIGTERM".
+const char* StopSignalName(int signal);
 
 // Progress on stderr: one line rewritten in place on a terminal, a line per 10% elsewhere.
 class ProgressPrinter {

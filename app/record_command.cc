@@ -1,8 +1,6 @@
 // `autocal record` and `autocal devices`: live sources on the command line.
 #include <unistd.h>
 
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -18,11 +16,6 @@
 
 namespace autocal::cli {
 namespace {
-
-// Set by SIGINT/SIGTERM: the recording stops cleanly, its files complete.
-std::atomic<bool> g_stop_requested{false};
-
-void RequestStop(int) { g_stop_requested = true; }
 
 int Fail(const QString& name, const std::string& message) {
   std::fprintf(stderr, "autocal %s: %s\n", qPrintable(name), message.c_str());
@@ -105,14 +98,13 @@ int Record(const QStringList& arguments) {
                    "autocal record: no --accel: recording the camera alone (--accel usb adds "
                    "a USB accelerometer)\n");
     }
-    std::signal(SIGINT, RequestStop);
-    std::signal(SIGTERM, RequestStop);
+    const StopRequest& stop = CatchStopSignals();  // The recording's files complete.
     const bool tty = isatty(STDERR_FILENO);
     size_t events_shown = 0;
     const RecorderProgress result = autocal::Record(
         *source, out, options,
         [&](const RecorderProgress& p) { PrintProgress(p, live, tty, &events_shown); },
-        &g_stop_requested);
+        &stop.requested);
     if (tty) std::fprintf(stderr, "\n");
     std::printf("recorded %llu frames and %llu accelerometer samples over %.2f s from %s to %s\n",
                 static_cast<unsigned long long>(result.frames_written),

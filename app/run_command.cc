@@ -1,8 +1,6 @@
 // `autocal run`: a recording or a live source through boxes 1-10, headless.
 #include <unistd.h>
 
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -22,11 +20,6 @@
 namespace autocal::cli {
 namespace {
 
-// Set by SIGINT/SIGTERM during a live run: it stops cleanly, history and summary complete.
-std::atomic<bool> g_stop_requested{false};
-
-void RequestStop(int) { g_stop_requested = true; }
-
 void PrintCalibration(const char* label, const CameraIntrinsics& c) {
   std::printf("%-8s fx %.2f fy %.2f cx %.2f cy %.2f k1 %.5f k2 %.5f p1 %.6f p2 %.6f k3 %.5f\n",
               label, c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3);
@@ -44,6 +37,10 @@ void PrintReport(const RunReport& report) {
   };
   std::printf("%zu frames (%.1f s of recording) in %.1f s: %.1f frames/s\n", report.frames,
               report.seconds, report.wall_seconds, report.fps);
+  if (report.stopped) {
+    std::printf("stopped after %zu of the input's %zu frames\n", report.frames,
+                report.frames_in_input);
+  }
   PrintCalibration("prior", report.prior);
   PrintCalibration("final", report.final.calibration);
   std::printf("attempts %d: accepted %d, rejected %d, no update %d, alarm %d, new regime %d\n",
@@ -103,13 +100,10 @@ void PrintLiveProgress(const RunProgress& p, bool tty) {
 
 // Starts the live source and runs it until it ends, --seconds pass or SIGINT/SIGTERM.
 RunReport RunLive(FrameSource& source, const RunSettings& settings, double seconds) {
-  g_stop_requested = false;
-  std::signal(SIGINT, RequestStop);
-  std::signal(SIGTERM, RequestStop);
   const bool tty = isatty(STDERR_FILENO);
   LiveRunControl control;
   control.seconds = seconds;
-  control.stop = &g_stop_requested;
+  control.stop = &CatchStopSignals().requested;
   control.progress = [tty](const RunProgress& p) { PrintLiveProgress(p, tty); };
   control.on_event = [tty](const SourceEvent& event) {
     std::fprintf(stderr, "%srun: %s\n", tty ? "\r\033[K" : "", FormatSourceEvent(event).c_str());
@@ -130,7 +124,8 @@ int Run(const QStringList& arguments) {
       "or a live source (camera:N with --accel usb, or a recording played with --live) as it\n"
       "comes, dropping the frames the pipeline cannot take, until it ends, --seconds pass or\n"
       "Ctrl-C. Every calibration attempt and its verdict goes to the history; the output is\n"
-      "the filtered calibration.");
+      "the filtered calibration. Ctrl-C on a recording stops the run early: the history,\n"
+      "summary and export are written for the frames done, and the exit code is 130.");
   parser.addOptions({
       {"input",
        "Native recording, EuRoC or TUM folder, video with accelerometer CSV, image folder, "
@@ -271,13 +266,16 @@ int Run(const QStringList& arguments) {
     }
 
     RunReport report;
+    const StopRequest* stop = nullptr;  // Offline runs stop early on SIGINT or SIGTERM.
     if (stills) {
       report = RunStillShots(*sequence, settings, [](const std::string& step) {
         std::fprintf(stderr, "run: %s\n", step.c_str());
       });
     } else if (sequence) {
       ProgressPrinter printer("run", "frames");
-      report = RunSequence(*sequence, settings, [&](const RunProgress& progress) {
+      stop = &CatchStopSignals();
+      report = RunSequence(
+          *sequence, settings, [&](const RunProgress& progress) {
         const CameraIntrinsics& c = progress.snapshot->calibration.calibration;
         printer(progress.frame, progress.frames,
                 QString("fx %1 cx %2 cy %3, regime %4")
@@ -285,7 +283,8 @@ int Run(const QStringList& arguments) {
                     .arg(c.cx, 0, 'f', 1)
                     .arg(c.cy, 0, 'f', 1)
                     .arg(progress.snapshot->calibration.regime));
-      });
+          },
+          &stop->requested);
     } else {
       report = RunLive(*source, settings, seconds);
     }
@@ -294,6 +293,14 @@ int Run(const QStringList& arguments) {
     if (export_format) {
       WriteCalibration(parser.value("export").toStdString(), report.final.calibration,
                        *export_format);
+    }
+    if (report.stopped) {
+      // The files are whole, but of part of the input: a script must not take them for all.
+      std::fprintf(stderr,
+                   "autocal run: stopped by %s after %zu of %zu frames; the history, summary "
+                   "and export hold those frames\n",
+                   StopSignalName(stop->signal), report.frames, report.frames_in_input);
+      return 128 + stop->signal;
     }
     return 0;
   } catch (const Error& error) {

@@ -105,6 +105,17 @@ std::unique_ptr<HistoryWriter> StartHistoryWriter(const RunSettings& settings) {
   return store ? std::make_unique<HistoryWriter>(std::move(store)) : nullptr;
 }
 
+// Finishes the frames fed to `runtime` and waits for `history` (may be null) to hold
+// every attempt judged.
+void FinishRun(Runtime* runtime, HistoryWriter* history) {
+  runtime->Finish();
+  // Live, or stopped before the end, an attempt whose solve ends after the last frame is
+  // judged with no snapshot to carry it: the file gets it here.
+  if (!history) return;
+  history->Submit(runtime->history());
+  history->Finish();
+}
+
 }  // namespace
 
 void SummarizeHistory(const CalibrationHistory& history, int64_t end_ns, RunReport* report) {
@@ -191,7 +202,8 @@ PipelineOptions RecordingDefaults(const SessionInfo& session) {
 }
 
 RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
-                      const std::function<void(const RunProgress&)>& progress) {
+                      const std::function<void(const RunProgress&)>& progress,
+                      const std::atomic<bool>* stop) {
   const SessionInfo& session = sequence.session();
   RunReport report;
   report.input = sequence.Describe();
@@ -203,7 +215,7 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   const std::vector<GroundTruthFrame>* truth = sequence.ground_truth();
   if (truth && truth->size() != sequence.frame_count()) truth = nullptr;
   FrameLog log(truth != nullptr);
-  report.frames = sequence.frame_count();
+  report.frames_in_input = sequence.frame_count();
   const auto start = std::chrono::steady_clock::now();
   RuntimeOptions runtime_options = settings.runtime;
   runtime_options.accel_time_offset_s = settings.accel_time_offset_s;
@@ -213,15 +225,23 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
     log.Add(*snapshot);
     if (snapshot->attempt && history) history->Submit(runtime->history());
     if (progress) {
-      progress({log.frames, report.frames,
+      progress({log.frames, report.frames_in_input,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
                 snapshot.get()});
     }
   };
   runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
                                       on_frame, settings.solve);
-  PushSequence(sequence, runtime.get());
-  if (history) history->Finish();
+  PushSequence(sequence, runtime.get(), stop);
+  FinishRun(runtime.get(), history.get());
+  report.frames = log.frames;
+  report.stopped = report.frames < report.frames_in_input;
+  // Frames are processed in order, none dropped: those done have the truth's first entries.
+  std::vector<GroundTruthFrame> truth_done;
+  if (truth && report.stopped) {
+    truth_done.assign(truth->begin(), truth->begin() + static_cast<std::ptrdiff_t>(log.frames));
+    truth = &truth_done;
+  }
   CompleteReport(*runtime, std::move(log), truth, settings, start, &report);
   return report;
 }
@@ -337,13 +357,7 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
       }
     }
     source.Stop();
-    runtime->Finish();
-    // Live, an attempt whose solve ends after the last frame is judged with no snapshot to
-    // carry it: the file gets it here.
-    if (history) {
-      history->Submit(runtime->history());
-      history->Finish();
-    }
+    FinishRun(runtime.get(), history.get());
     report_progress();
 
     const SourceStats stats = source.stats();
@@ -375,6 +389,12 @@ std::string SummaryJson(const RunReport& report) {
   std::string json = "{\n";
   json += "  \"input\": " + JsonString(report.input) + ",\n";
   json += "  \"frames\": " + std::to_string(report.frames) + ",\n";
+  if (!report.live) {
+    json += "  \"stopped\": " + std::string(report.stopped ? "true" : "false") + ",\n";
+    if (report.stopped) {
+      json += "  \"frames_in_input\": " + std::to_string(report.frames_in_input) + ",\n";
+    }
+  }
   json += "  \"seconds\": " + JsonNumber(report.seconds) + ",\n";
   json += "  \"wall_seconds\": " + JsonNumber(report.wall_seconds) + ",\n";
   json += "  \"fps\": " + JsonNumber(report.fps) + ",\n";

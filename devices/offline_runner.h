@@ -68,7 +68,11 @@ struct LiveRunReport {
 
 struct RunReport {
   std::string input;  // Sequence::Describe() or FrameSource::Describe().
-  size_t frames = 0;
+  size_t frames = 0;  // Processed.
+  // RunSequence: the sequence's frames, and whether a stop request ended the run before
+  // the last of them.
+  size_t frames_in_input = 0;
+  bool stopped = false;
   double seconds = 0.0;       // Span of the frame timestamps.
   double wall_seconds = 0.0;  // Processing time.
   double fps = 0.0;           // Frames processed per wall-clock second.
@@ -109,8 +113,12 @@ PipelineOptions RecordingDefaults(const SessionInfo& session);
 
 // Processes every frame of `sequence`. Throws Error on bad settings, unreadable frames or
 // a history file it cannot write. `progress`, when given, is called after every frame.
+// When `stop` is given and becomes true (from a signal handler, say), no frame is fed
+// after it: the frames already fed are finished, their attempts judged and written, and
+// the report covers them (report.stopped).
 RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
-                      const std::function<void(const RunProgress&)>& progress = {});
+                      const std::function<void(const RunProgress&)>& progress = {},
+                      const std::atomic<bool>* stop = nullptr);
 
 // How a live run is told to end and what it reports while it runs.
 struct LiveRunControl {
@@ -152,7 +160,8 @@ GroundTruthReport CompareWithTruth(const std::vector<int64_t>& times,
                                    const std::vector<GroundTruthFrame>& truth,
                                    const CalibrationTolerance& tolerance);
 // DESIGN.md section 6: frames, seconds, fps, final, updates, alarms, timing_ms and, where
-// the truth is known, error; for a live run, `live` (frames received and dropped, camera
+// the truth is known, error; for a recording's run, `stopped` (with `frames_in_input` when
+// true); for a live run, `live` (frames received and dropped, camera
 // gaps, disconnections, device events, what ended it). Throws Error naming the file when it cannot
 // be written.
 std::string SummaryJson(const RunReport& report);

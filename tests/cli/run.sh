@@ -72,6 +72,46 @@ sed -i 's/^material.window_s = .*/material.window_s = 3/' "$dir/s.settings"
 grep -qx 'material.window_s = 3' "$dir/s2.settings" || fail "--settings read"
 grep -qx 'material.max_lines = 10' "$dir/s2.settings" || fail "--set applied after --settings"
 
+# Stopped by a signal mid-run: the frames done are finished and their files whole, and the
+# exit code says the input was not run through. Rendered as it runs, 900 frames take longer
+# than the wait on any machine.
+interrupted_run() {  # interrupted_run SIGNAL NAME: stops a run once 20% is done
+  "$autocal" run --input "sim:office,seconds=30,resolution=320x240" --history "$dir/$2.sqlite" \
+    --summary "$dir/$2.json" --export "$dir/$2.yaml" --format opencv >"$dir/$2.out" \
+    2>"$dir/$2.progress" &
+  local pid=$! waited=0
+  until grep -q '^run: 180/900 frames' "$dir/$2.progress"; do
+    sleep 0.2
+    waited=$((waited + 1))
+    [[ $waited -lt 600 ]] || fail "$2: no progress: $(cat "$dir/$2.progress")"
+  done
+  kill "-$1" $pid
+  set +e
+  wait $pid
+  code=$?
+  set -e
+}
+interrupted_run INT int
+[[ $code -eq 130 ]] || fail "SIGINT: exit $code: $(tail -3 "$dir/int.progress")"
+grep -qE '^autocal run: stopped by SIGINT after [0-9]+ of 900 frames' "$dir/int.progress" ||
+  fail "stop said: $(tail -2 "$dir/int.progress")"
+grep -q '"stopped": true' "$dir/int.json" || fail "summary says stopped: $(head -5 "$dir/int.json")"
+grep -q '"frames_in_input": 900' "$dir/int.json" || fail "summary has the input's frames"
+grep -q '"error": {"final": {"fx_percent":' "$dir/int.json" || fail "truth compared when stopped"
+done_frames=$(grep -oE '"frames": [0-9]+' "$dir/int.json" | grep -oE '[0-9]+$')
+[[ $done_frames -ge 180 && $done_frames -lt 900 ]] || fail "frames done: $done_frames"
+grep -qE "^stopped after $done_frames of the input's 900 frames" "$dir/int.out" ||
+  fail "report says stopped: $(cat "$dir/int.out")"
+grep -q 'camera_matrix' "$dir/int.yaml" || fail "export written when stopped"
+"$autocal" export --history "$dir/int.sqlite" --format csv --out "$dir/int.csv" >/dev/null
+attempts=$(grep -oE '"attempted": [0-9]+' "$dir/int.json" | grep -oE '[0-9]+$')
+[[ $attempts -gt 0 && $(($(wc -l <"$dir/int.csv") - 1)) -eq $attempts ]] ||
+  fail "every attempt judged is in the history ($attempts)"
+grep -q '"stopped": false' "$dir/summary.json" || fail "a whole run says it was not stopped"
+interrupted_run TERM term
+[[ $code -eq 143 ]] && grep -q 'stopped by SIGTERM' "$dir/term.progress" ||
+  fail "SIGTERM: exit $code: $(tail -2 "$dir/term.progress")"
+
 expect_run 2 '--input is required'
 expect_run 2 '--export and --format go together' --input sim:static --export "$dir/x.yaml"
 expect_run 1 'no-such-dir' --input "$dir/no-such-dir"
