@@ -293,7 +293,9 @@ void Runtime::MotionLoop() {
       });
       if (stopping_) break;
       if (!half) {
-        if (!pending || !solved_) break;  // The queue closed.
+        // The queue closed. Offline the last attempt is judged whenever its solve ends, so
+        // that the run's results do not depend on how fast the solve was.
+        if (!pending || (options_.live && !solved_)) break;
         // Live, idle and the solve ended: its calibration goes in effect now, not at the
         // next frame (up to a frame interval and that frame's boxes 1-9 later).
         std::unique_lock lock(solve_mutex_);

@@ -183,8 +183,10 @@ class Runtime {
   // Offline: waits while the queue is full. Live: never waits. Throws the Error a worker
   // stopped on.
   void PushFrame(int64_t t_ns, const cv::Mat& raw);
-  // Processes every frame pushed, then stops the threads. Throws the Error a worker
-  // stopped on.
+  // Processes every frame pushed, then stops the threads. Offline it first judges an
+  // attempt made within judge_after_frames of the last frame, waiting for its solve (live
+  // only if its solve has ended); no snapshot carries that verdict: it is in history().
+  // Throws the Error a worker stopped on.
   void Finish();
 
   // New options for boxes 1-10, from any thread: they apply from the next frame pushed

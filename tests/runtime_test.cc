@@ -390,6 +390,38 @@ TEST(Runtime, OfflineJudgesBeforeTheNextAttemptIsDue) {
   }
 }
 
+// An attempt made a few frames before the end is judged offline however long its solve
+// takes (before, it was dropped when the solve outlasted the frames left, and kept when it
+// did not), and its verdict reaches the history file though no frame's snapshot carries it.
+TEST(Runtime, OfflineJudgesTheLastAttemptWhateverItsSolveTakes) {
+  // 141 frames: attempts every 15 frames, the last within judge_after_frames of the end.
+  const std::unique_ptr<Sequence> sequence = Walk(4.7);
+  const CameraIntrinsics truth = sequence->ground_truth()->front().intrinsics;
+  const test::TempDir dir;
+  for (const int solve_ms : {0, 250}) {
+    SCOPED_TRACE("solves taking " + std::to_string(solve_ms) + " ms");
+    RunSettings settings;
+    settings.history_path = dir / ("h" + std::to_string(solve_ms) + ".sqlite");
+    const Runtime::Solver stand_in = JitteredStandIn(truth, 0);
+    auto made = std::make_shared<std::vector<int64_t>>();  // Only the solve thread adds.
+    settings.solve = [=](const CalibrationJob& job) {
+      made->push_back(job.t_ns);
+      std::this_thread::sleep_for(std::chrono::milliseconds(solve_ms));
+      return stand_in(job);
+    };
+    const RunReport report = RunSequence(*sequence, settings);
+    ASSERT_GE(made->size(), 3u);
+    const int64_t last_frame_ns = sequence->frame_time_ns(sequence->frame_count() - 1);
+    const int64_t frame_ns = sequence->frame_time_ns(1) - sequence->frame_time_ns(0);
+    ASSERT_LT(last_frame_ns - made->back(), RuntimeOptions{}.judge_after_frames * frame_ns)
+        << "the premise: the last attempt is judged after the last frame";
+    EXPECT_EQ(report.attempts, int(made->size()));
+    const StoredHistory stored = HistoryStore(settings.history_path).Load();
+    ASSERT_EQ(stored.attempts.size(), made->size());
+    EXPECT_EQ(stored.attempts.back().t_ns, made->back());
+  }
+}
+
 TEST(Runtime, SnapshotsAreReadWhileThePipelineRuns) {
   const std::unique_ptr<Sequence> sequence = Walk(3.0);
   const AccelCalibration accel = AccelOf(*sequence);

@@ -173,7 +173,12 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
             Run* run_;
           } published(run, runtime.get());
           PushSequence(*sequence, runtime.get(), &run->stop);
-          if (history) history->Finish();
+          if (history) {
+            // Run through (the runtime finished): the last attempt, judged after the last
+            // frame, has no snapshot to carry it.
+            if (!run->stop) history->Submit(runtime->history());
+            history->Finish();
+          }
         } catch (const std::exception& e) {
           error = QString::fromStdString(e.what());
         }
