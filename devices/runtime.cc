@@ -59,7 +59,7 @@ Runtime::Runtime(const CameraIntrinsics& premission, const AccelCalibration& acc
       offset_ns_(static_cast<int64_t>(std::llround(options.accel_time_offset_s * 1e9))),
       on_frame_(std::move(on_frame)),
       changes_{{0, 0, pipeline}},
-      lens_(pipeline),
+      lens_(pipeline, options.live),
       motion_(premission, accel, pipeline),
       input_(options.frame_queue),
       between_(options.live ? options.lens_queue

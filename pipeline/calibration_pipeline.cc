@@ -49,9 +49,10 @@ std::vector<std::pair<std::string, double>> BoxTimings::Named() const {
           {"history", history_ms}};
 }
 
-LensHalf::LensHalf(const PipelineOptions& options)
+LensHalf::LensHalf(const PipelineOptions& options, bool live)
     : lens_(options.lens), rectifier_(options.lens.rectify) {
   lens_.set_readout_ms(options.calibration.readout_ms);
+  lens_.set_wait_for_estimates(!live);
 }
 
 void LensHalf::set_options(const PipelineOptions& options) {

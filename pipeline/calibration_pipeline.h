@@ -129,7 +129,9 @@ struct LensFrame {
 // newest estimate, and learns the calibration only through the CalibrationState it is given.
 class LensHalf {
  public:
-  explicit LensHalf(const PipelineOptions& options = {});
+  // `live`: box 2's estimates take effect once ended, never waited for
+  // (LensStage::set_wait_for_estimates).
+  explicit LensHalf(const PipelineOptions& options = {}, bool live = false);
 
   // `state`: the calibration after the latest frame the motion half has finished.
   LensFrame Process(int64_t t_ns, const cv::Mat& raw, const CalibrationState& state);

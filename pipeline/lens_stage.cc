@@ -237,7 +237,9 @@ LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,
       estimate_due_ = frames_ + options_.estimate_lag_frames;
     }
   }
-  if (estimating_.valid() && frames_ >= estimate_due_) {
+  if (estimating_.valid() && frames_ >= estimate_due_ &&
+      (wait_for_estimates_ ||
+       estimating_.wait_for(std::chrono::seconds(0)) == std::future_status::ready)) {
     TimedEstimate estimate = estimating_.get();
     latest_ = std::move(estimate.result);
     snapshot.distortion_ms = estimate.ms;

@@ -2,7 +2,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <chrono>
 #include <future>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -151,6 +153,49 @@ TEST(LensSimulated, PeriodicEstimateTakesEffectItsLagLater) {
     EXPECT_EQ(lagged[k].frame, inline_effects[k].frame + 5);
     EXPECT_EQ(lagged[k].estimate.estimate.k1, inline_effects[k].estimate.estimate.k1);
     EXPECT_EQ(lagged[k].estimate.estimate.k2, inline_effects[k].estimate.estimate.k2);
+  }
+}
+
+// Live, no frame waits for box 2: with no lag, an estimate is begun and due on the same
+// frame, which offline waits for it there; live it takes effect on the first frame after
+// it ended (the test gives it half a second), and is the same estimate.
+TEST(LensSimulated, LiveEstimateTakesEffectOnceEndedWithoutHoldingTheFrame) {
+  const auto sequence = MakeSimulatedSequence(
+      ParseScenarioSpec("office,lens=sonnar,resolution=320x240,seconds=2.5"));
+  CameraIntrinsics start = sequence->ground_truth()->front().intrinsics;
+  start.k1 = start.k2 = start.p1 = start.p2 = start.k3 = 0.0;
+  std::vector<cv::Mat> frames;
+  for (size_t i = 0; i < sequence->frame_count(); ++i) frames.push_back(sequence->LoadFrame(i));
+  LensOptions options;
+  options.estimate_lag_frames = 0;
+  struct Effect {
+    size_t frame;
+    double k1, ms;
+  };
+  auto run = [&](bool wait) {
+    LensStage stage(options);
+    stage.set_wait_for_estimates(wait);
+    std::vector<Effect> effects;
+    for (size_t i = 0; i < frames.size(); ++i) {
+      const LensSnapshot snapshot = stage.Process(sequence->frame_time_ns(i), frames[i], start);
+      if (snapshot.distortion_ms > 0) {
+        effects.push_back({i, snapshot.distortion->estimate.k1, snapshot.distortion_ms});
+      }
+      if (!wait && (i + 1) % size_t(options.estimate_every_frames) == 0) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      }
+    }
+    return effects;
+  };
+  const std::vector<Effect> offline = run(true), live = run(false);
+  ASSERT_EQ(offline.size(), 2u);
+  ASSERT_EQ(live.size(), offline.size());
+  for (size_t k = 0; k < live.size(); ++k) {
+    SCOPED_TRACE("estimate " + std::to_string(k) + ", " + std::to_string(live[k].ms) + " ms");
+    EXPECT_EQ((offline[k].frame + 1) % size_t(options.estimate_every_frames), 0u)
+        << "offline: taken on the frame it was begun on";
+    EXPECT_EQ(live[k].frame, offline[k].frame + 1) << "live: on the next frame";
+    EXPECT_EQ(live[k].k1, offline[k].k1);
   }
 }
 
