@@ -273,9 +273,7 @@ int Run(const QStringList& arguments) {
       });
     } else if (sequence) {
       ProgressPrinter printer("run", "frames");
-      stop = &CatchStopSignals();
-      report = RunSequence(
-          *sequence, settings, [&](const RunProgress& progress) {
+      const auto show = [&](const RunProgress& progress) {
         const CameraIntrinsics& c = progress.snapshot->calibration.calibration;
         printer(progress.frame, progress.frames,
                 QString("fx %1 cx %2 cy %3, regime %4")
@@ -283,8 +281,9 @@ int Run(const QStringList& arguments) {
                     .arg(c.cx, 0, 'f', 1)
                     .arg(c.cy, 0, 'f', 1)
                     .arg(progress.snapshot->calibration.regime));
-          },
-          &stop->requested);
+      };
+      stop = &CatchStopSignals();
+      report = RunSequence(*sequence, settings, show, &stop->requested);
     } else {
       report = RunLive(*source, settings, seconds);
     }

@@ -109,8 +109,9 @@ std::unique_ptr<HistoryWriter> StartHistoryWriter(const RunSettings& settings) {
 // every attempt judged.
 void FinishRun(Runtime* runtime, HistoryWriter* history) {
   runtime->Finish();
-  // Live, or stopped before the end, an attempt whose solve ends after the last frame is
-  // judged with no snapshot to carry it: the file gets it here.
+  // An attempt judged after the last frame (offline, one made within judge_after_frames
+  // of the end; live, one whose solve ended after it) has no snapshot to carry it: the
+  // file gets it here.
   if (!history) return;
   history->Submit(runtime->history());
   history->Finish();

@@ -161,9 +161,9 @@ GroundTruthReport CompareWithTruth(const std::vector<int64_t>& times,
                                    const CalibrationTolerance& tolerance);
 // DESIGN.md section 6: frames, seconds, fps, final, updates, alarms, timing_ms and, where
 // the truth is known, error; for a recording's run, `stopped` (with `frames_in_input` when
-// true); for a live run, `live` (frames received and dropped, camera
-// gaps, disconnections, device events, what ended it). Throws Error naming the file when it cannot
-// be written.
+// true); for a live run, `live` (frames received and dropped, camera gaps,
+// disconnections, device events, what ended it). Throws Error naming the file when it
+// cannot be written.
 std::string SummaryJson(const RunReport& report);
 void WriteSummary(const std::string& path, const RunReport& report);
 

@@ -1,8 +1,8 @@
 // Boxes 1-3 on simulated office walks, measured against the simulator's ground truth.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <chrono>
 #include <future>
 #include <thread>
 #include <vector>
