@@ -160,8 +160,8 @@ TEST(LensSimulated, PeriodicEstimateTakesEffectItsLagLater) {
 // frame, which offline waits for it there; live it takes effect on the first frame after
 // it ended (the test gives it half a second), and is the same estimate.
 TEST(LensSimulated, LiveEstimateTakesEffectOnceEndedWithoutHoldingTheFrame) {
-  const auto sequence = MakeSimulatedSequence(
-      ParseScenarioSpec("office,lens=sonnar,resolution=320x240,seconds=2.5"));
+  const auto sequence =
+      MakeSimulatedSequence(ParseScenarioSpec("office,lens=sonnar,resolution=320x240,seconds=2.5"));
   CameraIntrinsics start = sequence->ground_truth()->front().intrinsics;
   start.k1 = start.k2 = start.p1 = start.p2 = start.k3 = 0.0;
   std::vector<cv::Mat> frames;
