@@ -55,6 +55,11 @@ void HistoryWriter::Finish() {
   if (failure_) std::rethrow_exception(failure_);
 }
 
+void HistoryWriter::Finish(const CalibrationHistory& history) {
+  Submit(history);
+  Finish();
+}
+
 void HistoryWriter::Write() {
   pthread_setname_np(pthread_self(), "history writer");  // As top -H and perf show it.
   std::unique_lock lock(mutex_);

@@ -105,18 +105,6 @@ std::unique_ptr<HistoryWriter> StartHistoryWriter(const RunSettings& settings) {
   return store ? std::make_unique<HistoryWriter>(std::move(store)) : nullptr;
 }
 
-// Finishes the frames fed to `runtime` and waits for `history` (may be null) to hold
-// every attempt judged.
-void FinishRun(Runtime* runtime, HistoryWriter* history) {
-  runtime->Finish();
-  // An attempt judged after the last frame (offline, one made within judge_after_frames
-  // of the end; live, one whose solve ended after it) has no snapshot to carry it: the
-  // file gets it here.
-  if (!history) return;
-  history->Submit(runtime->history());
-  history->Finish();
-}
-
 }  // namespace
 
 void SummarizeHistory(const CalibrationHistory& history, int64_t end_ns, RunReport* report) {
@@ -234,7 +222,8 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
                                       on_frame, settings.solve);
   PushSequence(sequence, runtime.get(), stop);
-  FinishRun(runtime.get(), history.get());
+  runtime->Finish();  // Stopped: the frames already fed.
+  if (history) history->Finish(runtime->history());
   report.frames = log.frames;
   report.stopped = report.frames < report.frames_in_input;
   // Frames are processed in order, none dropped: those done have the truth's first entries.
@@ -358,7 +347,8 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
       }
     }
     source.Stop();
-    FinishRun(runtime.get(), history.get());
+    runtime->Finish();
+    if (history) history->Finish(runtime->history());
     report_progress();
 
     const SourceStats stats = source.stats();

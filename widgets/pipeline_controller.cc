@@ -174,10 +174,12 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
           } published(run, runtime.get());
           PushSequence(*sequence, runtime.get(), &run->stop);
           if (history) {
-            // Run through (the runtime finished): the last attempt, judged after the last
-            // frame, has no snapshot to carry it.
-            if (!run->stop) history->Submit(runtime->history());
-            history->Finish();
+            // Stopped, the runtime is still running: its history is not to be read here.
+            if (run->stop) {
+              history->Finish();
+            } else {
+              history->Finish(runtime->history());
+            }
           }
         } catch (const std::exception& e) {
           error = QString::fromStdString(e.what());
