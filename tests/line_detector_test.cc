@@ -1,7 +1,9 @@
 #include "pipeline/line_detector.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -118,6 +120,32 @@ TEST(LineDetector, FindsPolygonEdgesToSubPixelAccuracy) {
     EXPECT_LE(found.size(), 4u) << "trial " << trial;
   }
   std::printf("worst rho error %.3f px, worst theta error %.3f deg\n", worst_rho, worst_theta);
+}
+
+// Edges whose normals lie within the gradient's reach of theta = 0 (= pi): their votes run
+// over the end of the angle bins and on from the start, with the distance's sign turned.
+TEST(LineDetector, FindsEdgesWhoseNormalsLieAcrossTheAngleWrap) {
+  for (const double tilt_deg : {-9.0, -2.5, 0.0, 2.5, 9.0}) {
+    const double tilt = tilt_deg * M_PI / 180;
+    const Eigen::Vector2d centre(160, 120), along(std::cos(tilt), std::sin(tilt));
+    const Eigen::Vector2d across(-along.y(), along.x());
+    std::vector<Eigen::Vector2d> corners;
+    for (const auto& [a, b] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
+      corners.push_back(centre + 90.0 * a * along + 70.0 * b * across);
+    }
+    std::vector<TrueLine> truth;
+    const cv::Mat image = RenderPolygon(corners, {320, 240}, 2.0, &truth);
+    const std::vector<LineSegment> found = DetectLines(image, LineDetectorOptions());
+    for (const TrueLine& line : truth) {
+      const bool found_it = std::any_of(found.begin(), found.end(), [&](const LineSegment& s) {
+        const auto [dtheta, drho] = LineDistance(s.rho, s.theta, line.rho, line.theta);
+        return dtheta < 0.2 * M_PI / 180 && drho < 0.5;
+      });
+      EXPECT_TRUE(found_it) << "tilt " << tilt_deg << " deg: line rho " << line.rho << " theta "
+                            << line.theta * 180 / M_PI << " deg not found";
+    }
+    EXPECT_EQ(found.size(), 4u) << "tilt " << tilt_deg << " deg";
+  }
 }
 
 TEST(LineDetector, ReportsNoLineOnPureNoise) {
