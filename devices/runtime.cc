@@ -295,7 +295,10 @@ void Runtime::MotionLoop() {
       if (!half) {
         // The queue closed. Offline the last attempt is judged whenever its solve ends, so
         // that the run's results do not depend on how fast the solve was.
-        if (!pending || (options_.live && !solved_)) break;
+        if (!pending || (options_.live && !solved_)) {
+          if (judged_between) attempt_after_last_frame_ = std::move(judged_between->attempt);
+          break;
+        }
         // Live, idle and the solve ended: its calibration goes in effect now, not at the
         // next frame (up to a frame interval and that frame's boxes 1-9 later).
         std::unique_lock lock(solve_mutex_);

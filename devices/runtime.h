@@ -185,7 +185,8 @@ class Runtime {
   void PushFrame(int64_t t_ns, const cv::Mat& raw);
   // Processes every frame pushed, then stops the threads. Offline it first judges an
   // attempt made within judge_after_frames of the last frame, waiting for its solve (live
-  // only if its solve has ended); no snapshot carries that verdict: it is in history().
+  // only if its solve has ended); no snapshot carries that verdict: it is in history() and
+  // attempt_after_last_frame().
   // Throws the Error a worker stopped on.
   void Finish();
 
@@ -206,6 +207,11 @@ class Runtime {
   RuntimeStats stats() const;
   // The history of attempts: from the frame callback, or after Finish.
   const CalibrationHistory& history() const { return motion_.history(); }
+  // After Finish: the attempt judged after the last frame's snapshot, which no snapshot
+  // carries (null if none was).
+  const std::shared_ptr<const AttemptOutcome>& attempt_after_last_frame() const {
+    return attempt_after_last_frame_;
+  }
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -298,6 +304,8 @@ class Runtime {
 
   mutable std::mutex snapshot_mutex_;  // Held only to copy the pointer.
   std::shared_ptr<const FrameSnapshot> latest_;
+  // Set by the boxes 4-9 thread as it ends; read after Finish has joined it.
+  std::shared_ptr<const AttemptOutcome> attempt_after_last_frame_;
 
   mutable std::mutex stats_mutex_;
   RuntimeStats stats_;

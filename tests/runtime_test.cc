@@ -422,6 +422,27 @@ TEST(Runtime, OfflineJudgesTheLastAttemptWhateverItsSolveTakes) {
   }
 }
 
+// What the workbench shows boards from: every judged attempt, the snapshots' and then the
+// one judged after the last frame.
+TEST(Runtime, TheAttemptJudgedAfterTheLastFrameIsHandedOver) {
+  const std::unique_ptr<Sequence> sequence = Walk(4.7);  // As above: the last one is.
+  const CameraIntrinsics truth = sequence->ground_truth()->front().intrinsics;
+  std::vector<std::shared_ptr<const AttemptOutcome>> from_snapshots;
+  Runtime runtime(
+      *sequence->session().premission_calibration, AccelOf(*sequence), {}, {},
+      [&](const std::shared_ptr<const FrameSnapshot>& snapshot) {
+        if (snapshot->attempt) from_snapshots.push_back(snapshot->attempt);
+      },
+      JitteredStandIn(truth, 0));
+  PushSequence(*sequence, &runtime);
+  const std::vector<AttemptRecord>& judged = runtime.history().attempts();
+  ASSERT_EQ(from_snapshots.size() + 1, judged.size()) << "the premise: one has no snapshot";
+  const std::shared_ptr<const AttemptOutcome>& last = runtime.attempt_after_last_frame();
+  ASSERT_TRUE(last);
+  EXPECT_EQ(last->record.t_ns, judged.back().t_ns);
+  EXPECT_GT(last->record.t_ns, from_snapshots.back()->record.t_ns);
+}
+
 TEST(Runtime, SnapshotsAreReadWhileThePipelineRuns) {
   const std::unique_ptr<Sequence> sequence = Walk(3.0);
   const AccelCalibration accel = AccelOf(*sequence);

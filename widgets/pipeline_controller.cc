@@ -173,6 +173,16 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
             Run* run_;
           } published(run, runtime.get());
           PushSequence(*sequence, runtime.get(), &run->stop);
+          if (!run->stop) {
+            if (auto attempt = runtime->attempt_after_last_frame()) {
+              QMetaObject::invokeMethod(
+                  this,
+                  [this, generation, attempt = std::move(attempt)] {
+                    onAttemptAfterLastFrame(generation, attempt);
+                  },
+                  Qt::QueuedConnection);
+            }
+          }
           if (history) {
             // Stopped, the runtime is still running: its history is not to be read here.
             if (run->stop) {
@@ -217,6 +227,13 @@ void PipelineController::onSnapshot(uint64_t generation,
     current_.pipeline_frames_done = frames_done_;  // The "pipeline at frame N" note moves on.
     emit overlaysChanged(current_);
   }
+}
+
+void PipelineController::onAttemptAfterLastFrame(uint64_t generation,
+                                                 std::shared_ptr<const AttemptOutcome> attempt) {
+  if (generation != generation_) return;
+  attempts_.push_back(std::move(attempt));
+  if (!current_.live && !attempts_.back()->boards.empty()) updateCurrent();
 }
 
 void PipelineController::onAttemptRecorded(uint64_t generation, const QString& path) {

@@ -68,8 +68,8 @@ class PipelineController : public QObject {
   ~PipelineController() override;
 
   // Stops the run under way and starts one over `sequence` (none: stops), from the
-  // calibration setPremission gave, else the sequence's own pre-mission calibration. Without either, or with
-  // one for another image size, it cannot be run: failed() says so.
+  // calibration setPremission gave, else the sequence's own pre-mission calibration. Without
+  // either, or with one for another image size, it cannot be run: failed() says so.
   void start(std::shared_ptr<const Sequence> sequence);
   // The calibration runs start from, given by hand (none: each recording's own); applies
   // from the next start().
@@ -88,6 +88,9 @@ class PipelineController : public QObject {
   double framesPerSecond() const;
   // The snapshot of frame `index` if the pipeline has done it and it is still kept.
   std::shared_ptr<const FrameSnapshot> snapshot(int index) const;
+  // The run's judged attempts in judging order, the one judged after the last frame's
+  // snapshot included once the run has ended: the boards overlay picks from these.
+  const std::vector<std::shared_ptr<const AttemptOutcome>>& attempts() const { return attempts_; }
   // The temporary history file of the run (empty before its first attempt).
   const QString& historyPath() const { return history_path_; }
   // What is on screen for the current frame.
@@ -143,6 +146,7 @@ class PipelineController : public QObject {
 
   void onSnapshot(uint64_t generation, std::shared_ptr<const FrameSnapshot> snapshot);
   void onAttemptRecorded(uint64_t generation, const QString& path);
+  void onAttemptAfterLastFrame(uint64_t generation, std::shared_ptr<const AttemptOutcome> attempt);
   void onEnded(uint64_t generation, const QString& error);
   void evictFarthest();
   // Lays out the current frame's overlays again and says so.

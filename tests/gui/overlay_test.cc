@@ -23,6 +23,7 @@
 
 #include "devices/recording_writer.h"
 #include "devices/sequence.h"
+#include "pipeline/history_store.h"
 #include "pipeline/rectifier.h"
 #include "tests/gui/screenshot.h"
 #include "widgets/calibration_plots.h"
@@ -182,6 +183,7 @@ class OverlayTest : public QObject {
   void defaultLayersShowWhatWasFound();
   void switchesPersist();  // And the threshold panel feeds the controller.
   void redrawRateWhilePipelineRuns();
+  void boardsComeFromEveryJudgedAttempt();
 
  private:
   std::unique_ptr<MainWindow> OpenWindow(const QString& source);
@@ -456,6 +458,27 @@ void OverlayTest::defaultLayersShowWhatWasFound() {
   const Changes changes = Compare(Grab(view), drawn, footprint, view.imageRect());
   QVERIFY(changes.anchors > 0);
   QVERIFY(changes.anchors_hit >= 0.9);
+}
+
+void OverlayTest::boardsComeFromEveryJudgedAttempt() {
+  // 141 frames: the last attempt is made within judge_after_frames of the end, so it is
+  // judged after the last frame and no snapshot carries it (Runtime tests).
+  const auto window =
+      OpenWindow(QStringLiteral("sim:office,lens=sonnar,seconds=4.7,resolution=320x240"));
+  QVERIFY(window);
+  PipelineController& pipeline = *window->pipelineController();
+  QSignalSpy finished(&pipeline, &PipelineController::finished);
+  QVERIFY(finished.wait(kPipelineTimeoutMs));
+  size_t from_snapshots = 0;
+  for (int index = 0; index < pipeline.framesDone(); ++index) {
+    const auto snapshot = pipeline.snapshot(index);
+    QVERIFY(snapshot);
+    if (snapshot->attempt) ++from_snapshots;
+  }
+  const StoredHistory stored = HistoryStore(pipeline.historyPath().toStdString()).Load();
+  QCOMPARE(stored.attempts.size(), from_snapshots + 1);  // The premise.
+  QCOMPARE(pipeline.attempts().size(), stored.attempts.size());
+  QCOMPARE(pipeline.attempts().back()->record.t_ns, stored.attempts.back().t_ns);
 }
 
 void OverlayTest::switchesPersist() {
