@@ -221,8 +221,8 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   };
   runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
                                       on_frame, settings.solve);
-  PushSequence(sequence, runtime.get(), stop);
-  runtime->Finish();  // Stopped: the frames already fed.
+  // Stopped, the frames already fed are finished all the same.
+  if (!PushSequence(sequence, runtime.get(), stop)) runtime->Finish();
   if (history) history->Finish(runtime->history());
   report.frames = log.frames;
   report.stopped = report.frames < report.frames_in_input;

@@ -418,7 +418,7 @@ void Runtime::SolveLoop() {
   CountThreadCpu(&RuntimeStats::solve_cpu_s);
 }
 
-void PushSequence(const Sequence& sequence, Runtime* runtime, const std::atomic<bool>* stop) {
+bool PushSequence(const Sequence& sequence, Runtime* runtime, const std::atomic<bool>* stop) {
   const auto stopped = [stop] { return stop && stop->load(); };
   const std::vector<AccelSample>& samples = sequence.accel();
   size_t fed = 0;
@@ -432,7 +432,9 @@ void PushSequence(const Sequence& sequence, Runtime* runtime, const std::atomic<
     runtime->PushAccel(std::span(samples).subspan(first, fed - first));
     runtime->PushFrame(t_ns, sequence.LoadFrame(i));
   }
-  if (!stopped()) runtime->Finish();
+  if (stopped()) return false;
+  runtime->Finish();
+  return true;
 }
 
 }  // namespace autocal

@@ -321,8 +321,9 @@ class Runtime {
 // Feeds a recorded sequence to `runtime` frame by frame, each frame's accelerometer
 // samples (up to the frame's time plus the runtime's lead) ahead of it, then finishes.
 // When `stop` is given and becomes true, feeding ends before the next frame and the
-// runtime is left unfinished (to be destroyed).
-void PushSequence(const Sequence& sequence, Runtime* runtime,
+// runtime is left unfinished (to be destroyed). Returns whether the runtime was finished
+// (so its history and attempt_after_last_frame may be read).
+bool PushSequence(const Sequence& sequence, Runtime* runtime,
                   const std::atomic<bool>* stop = nullptr);
 
 }  // namespace autocal

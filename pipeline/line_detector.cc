@@ -219,6 +219,12 @@ std::vector<RadonPeak> FindRadonPeaks(const cv::Mat& edges, const Gradients& gra
     sin_table[n] = std::sin(n * theta_step) / options.rho_resolution_px;
   }
   const double reach = options.max_normal_angle_deg * M_PI / 180.0;
+  // An angle bin counted past either end, brought into [0, thetas).
+  const auto wrapped = [thetas](int n) {
+    while (n < 0) n += thetas;
+    while (n >= thetas) n -= thetas;
+    return n;
+  };
   // Each edge pixel votes for the run of angles its gradient could be normal to: `count`
   // of them from `first` on.
   struct Voter {
@@ -246,10 +252,7 @@ std::vector<RadonPeak> FindRadonPeaks(const cv::Mat& edges, const Gradients& gra
       const int last = static_cast<int>(std::floor((angle + reach) / theta_step));
       if (last < first) continue;
       // Normals a half turn apart are one line (theta in [0, pi), rho of either sign).
-      int first_bin = first;
-      while (first_bin < 0) first_bin += thetas;
-      while (first_bin >= thetas) first_bin -= thetas;
-      found.push_back({x, y, first_bin, last - first + 1});
+      found.push_back({x, y, wrapped(first), last - first + 1});
       most_angles = std::max(most_angles, last - first + 1);
     }
   }
@@ -285,7 +288,7 @@ std::vector<RadonPeak> FindRadonPeaks(const cv::Mat& edges, const Gradients& gra
     uint16_t* row = &bin(n, 0);
     const double cos_n = cos_table[n], sin_n = sin_table[n];
     for (int ahead = 0; ahead < most_angles; ++ahead) {
-      const int first = ((n - ahead) % thetas + thetas) % thetas;
+      const int first = wrapped(n - ahead);
       // Those of the group with more than `ahead` angles.
       const int begin = key_begin[key(first, most_angles)];
       const int end = key_begin[key(first, ahead + 1) + 1];

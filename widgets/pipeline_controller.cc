@@ -172,8 +172,11 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
             }
             Run* run_;
           } published(run, runtime.get());
-          PushSequence(*sequence, runtime.get(), &run->stop);
-          if (!run->stop) {
+          if (!PushSequence(*sequence, runtime.get(), &run->stop)) {
+            // Stopped, the runtime is still running: nothing of it is to be read here.
+            if (history) history->Finish();
+          } else {
+            if (history) history->Finish(runtime->history());
             if (auto attempt = runtime->attempt_after_last_frame()) {
               QMetaObject::invokeMethod(
                   this,
@@ -181,14 +184,6 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
                     onAttemptAfterLastFrame(generation, attempt);
                   },
                   Qt::QueuedConnection);
-            }
-          }
-          if (history) {
-            // Stopped, the runtime is still running: its history is not to be read here.
-            if (run->stop) {
-              history->Finish();
-            } else {
-              history->Finish(runtime->history());
             }
           }
         } catch (const std::exception& e) {
