@@ -13,6 +13,7 @@
 #include "devices/inspect.h"
 #include "devices/recording_writer.h"
 #include "devices/sequence.h"
+#include "devices/sim/lens.h"
 #include "devices/sim/simulator.h"
 #include "pipeline/calibration_io.h"
 #include "pipeline/error.h"
@@ -22,6 +23,8 @@ namespace autocal::cli {
 
 int Simulate(const QStringList& arguments) {
   const QString name = "simulate";
+  QStringList lenses;
+  for (const std::string& lens : LensNames()) lenses << QString::fromStdString(lens);
   QCommandLineParser parser;
   parser.setApplicationDescription(
       "Writes a simulated recording (frames, accelerometer, ground truth) from a scenario:\n"
@@ -29,7 +32,7 @@ int Simulate(const QStringList& arguments) {
   parser.addOptions({
       {"scenario", "Built-in scenario name or YAML file (default office).", "name|file", "office"},
       {"out", "Recording folder to create (must not exist or be empty).", "dir"},
-      {"lens", "Lens: tessar or sonnar.", "lens"},
+      {"lens", "Lens: " + lenses.join(", ") + ".", "lens"},
       {"seconds", "Duration in seconds.", "s"},
       {"resolution", "Frame size, e.g. 640x480.", "WxH"},
       {"fps", "Frame rate.", "hz"},

@@ -1,6 +1,7 @@
 #include "pipeline/anchored_tracks.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -77,6 +78,44 @@ std::optional<float> Standardize(const cv::Mat& patch, float min_spread, cv::Mat
   return spread;
 }
 
+// Below this (px of the anchor's patch) the lens bends the resampling of the anchor's
+// patch nowhere on its edge off the linearization at its centre, and the affine warp
+// stands. A translation-only alignment takes the bend for a shift: outward at the edge of
+// a wide lens (110 deg at 320x240: 0.26 px on average past 60% of the half-diagonal), which
+// box 10 took for a weaker barrel there and a longer focal length (docs/calibration.md).
+constexpr double kLinearEnoughPx = 0.01;
+
+// `patch` (CV_32F) resampled bilinearly on a (2 half + 1)^2 grid whose corners, edge
+// midpoints and centre land at `at` (row-major, in the patch's pixels), the points between
+// placed by the biquadratic through those nine. Every sample must lie inside the patch.
+void ResampleBiquadratic(const cv::Mat& patch, const std::array<cv::Point2d, 9>& at, int half,
+                         cv::Mat* out) {
+  const int side = 2 * half + 1;
+  out->create(side, side, CV_32F);
+  std::vector<std::array<double, 3>> lagrange(side);  // Weights of the three nodes on an axis.
+  for (int k = 0; k < side; ++k) {
+    const double t = double(k - half) / half;
+    lagrange[k] = {0.5 * t * (t - 1.0), 1.0 - t * t, 0.5 * t * (t + 1.0)};
+  }
+  for (int row = 0; row < side; ++row) {
+    const std::array<double, 3>& wy = lagrange[row];
+    std::array<cv::Point2d, 3> column;  // Each column of nodes interpolated to this row.
+    for (int j = 0; j < 3; ++j) column[j] = wy[0] * at[j] + wy[1] * at[3 + j] + wy[2] * at[6 + j];
+    float* target = out->ptr<float>(row);
+    for (int col = 0; col < side; ++col) {
+      const std::array<double, 3>& wx = lagrange[col];
+      const cv::Point2d p = wx[0] * column[0] + wx[1] * column[1] + wx[2] * column[2];
+      const int x0 = std::clamp(int(std::floor(p.x)), 0, patch.cols - 2);
+      const int y0 = std::clamp(int(std::floor(p.y)), 0, patch.rows - 2);
+      const float ax = float(p.x - x0), ay = float(p.y - y0);
+      const float* above = patch.ptr<float>(y0) + x0;
+      const float* below = patch.ptr<float>(y0 + 1) + x0;
+      target[col] = (1.0f - ay) * ((1.0f - ax) * above[0] + ax * above[1]) +
+                    ay * ((1.0f - ax) * below[0] + ax * below[1]);
+    }
+  }
+}
+
 // The raw pixel of an undistorted one (the camera matrix alone), and the Jacobian of the
 // raw pixel with respect to the undistorted one there.
 struct RawOfIdeal {
@@ -107,6 +146,8 @@ std::optional<AnchoredTracks::Anchor> AnchoredTracks::Take(const DominantPlane& 
   anchor.plane = plane.id;
   anchor.reference_t_ns = plane.reference_t_ns;
   anchor.reference_to_anchor = plane.homography;
+  anchor.camera = camera;
+  anchor.raw = pixel;
   anchor.ideal = {ideal->x(), ideal->y()};
   anchor.ideal_from_raw = RawFromIdeal(camera, anchor.ideal).jacobian.inv();
   cv::getRectSubPix(image, cv::Size(2 * radius + 1, 2 * radius + 1), pixel, anchor.patch, CV_32F);
@@ -147,12 +188,43 @@ std::optional<AnchoredTracks::Aligned> AnchoredTracks::Align(const Anchor& ancho
     const cv::Vec2d reach = anchor_from_now * ((r + 1) * corner);
     if (std::abs(reach[0]) > radius - 1 || std::abs(reach[1]) > radius - 1) return std::nullopt;
   }
-  const cv::Matx23d sample_at(anchor_from_now(0, 0), anchor_from_now(0, 1),
-                              radius - (anchor_from_now(0, 0) + anchor_from_now(0, 1)) * (r + 1),
-                              anchor_from_now(1, 0), anchor_from_now(1, 1),
-                              radius - (anchor_from_now(1, 0) + anchor_from_now(1, 1)) * (r + 1));
-  cv::warpAffine(anchor.patch, wide_, sample_at, cv::Size(side, side),
-                 cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+  // Where this view's pixels at the corners and edge midpoints of the resampled patch lie
+  // in the anchor's patch, exactly: undistorted by this view's calibration, back through
+  // the homography, distorted by the anchor's (the centre is the anchor's pixel).
+  const cv::Matx33d back = h.inv();
+  std::array<cv::Point2d, 9> exact;  // Row-major over offsets (-(r + 1), 0, r + 1) squared.
+  double bend = 0.0;                 // The most they lie off the linearization.
+  for (int i = 0; i < 9; ++i) {
+    const cv::Vec2d offset((r + 1) * (i % 3 - 1), (r + 1) * (i / 3 - 1));
+    exact[i] = {double(radius), double(radius)};
+    if (i == 4) continue;
+    const auto ideal_now =
+        UndistortPixel(camera, {on_plane.pixel.x + offset[0], on_plane.pixel.y + offset[1]});
+    if (!ideal_now) return std::nullopt;
+    const cv::Vec3d then = back * cv::Vec3d(ideal_now->x(), ideal_now->y(), 1.0);
+    if (!(then[2] > 0)) return std::nullopt;
+    const cv::Point2d raw =
+        RawFromIdeal(anchor.camera, {then[0] / then[2], then[1] / then[2]}).pixel;
+    exact[i] += cv::Point2d(raw.x - anchor.raw.x, raw.y - anchor.raw.y);
+    const cv::Vec2d linear = anchor_from_now * offset;
+    bend = std::max(bend, std::hypot(exact[i].x - radius - linear[0],
+                                     exact[i].y - radius - linear[1]));
+  }
+  if (bend < kLinearEnoughPx) {
+    const cv::Matx23d sample_at(anchor_from_now(0, 0), anchor_from_now(0, 1),
+                                radius - (anchor_from_now(0, 0) + anchor_from_now(0, 1)) * (r + 1),
+                                anchor_from_now(1, 0), anchor_from_now(1, 1),
+                                radius - (anchor_from_now(1, 0) + anchor_from_now(1, 1)) * (r + 1));
+    cv::warpAffine(anchor.patch, wide_, sample_at, cv::Size(side, side),
+                   cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+  } else {
+    for (const cv::Point2d& p : exact) {
+      if (std::abs(p.x - radius) > radius - 1 || std::abs(p.y - radius) > radius - 1) {
+        return std::nullopt;
+      }
+    }
+    ResampleBiquadratic(anchor.patch, exact, r + 1, &wide_);
+  }
   const cv::Rect inner(1, 1, 2 * r + 1, 2 * r + 1);
   // Zero mean and unit spread on both sides: the local equalization of each frame
   // shifts and scales the grey levels of a patch as the view around it changes.

@@ -68,7 +68,9 @@ class AnchoredTracks {
     int plane = 0;
     int64_t reference_t_ns = 0;
     cv::Matx33d reference_to_anchor;  // The plane's homography when the anchor was taken.
-    cv::Point2d ideal;                // Undistorted pixel the patch is centred on,
+    CameraIntrinsics camera;          // The calibration it was taken with.
+    cv::Point2f raw;                  // Pixel the patch is centred on,
+    cv::Point2d ideal;                // undistorted,
     cv::Matx22d ideal_from_raw;       // and the undistortion's Jacobian there.
     cv::Mat patch;                    // CV_32F around it, wide enough to warp from.
   };

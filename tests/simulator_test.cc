@@ -6,6 +6,7 @@
 #include <ostream>
 #include <set>
 #include <thread>
+#include <tuple>
 
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
@@ -412,6 +413,25 @@ TEST(LensTest, SonnarHasStrongBarrelAndSeesEightyFiveDegrees) {
   for (const Eigen::Vector2d& corner :
        {Eigen::Vector2d(-0.5, -0.5), Eigen::Vector2d(639.5, 479.5)}) {
     EXPECT_TRUE(Unproject(k, corner).has_value());
+  }
+}
+
+// The lenses the pipeline was not tuned on: each edge sees half the field of view through
+// the distortion, every pixel has one ray, and the distortion bends the way it should.
+TEST(LensTest, HologonAndTelephotoSeeTheirFieldsOfView) {
+  for (const auto& [lens, fov_deg, barrel] :
+       {std::tuple{"hologon", 110.0, true}, std::tuple{"telephoto", 55.0, false}}) {
+    const CameraIntrinsics k = LensIntrinsics(lens, 640, 480);
+    EXPECT_EQ(LensFieldOfViewDeg(lens), fov_deg);
+    const auto right = Unproject(k, Eigen::Vector2d(k.cx + 320.0, k.cy));
+    ASSERT_TRUE(right.has_value()) << lens;
+    EXPECT_NEAR(std::atan(right->x()) * 180.0 / M_PI, 0.5 * fov_deg, 1e-6) << lens;
+    for (int v = 0; v < 480; v += 8) {
+      for (int u = 0; u < 640; u += 8) ASSERT_TRUE(Unproject(k, Eigen::Vector2d(u, v))) << lens;
+    }
+    // Barrel: the ray of an edge pixel lies farther out than the pinhole would put it.
+    const double pinhole_x = 320.0 / k.fx;
+    EXPECT_EQ(right->x() > pinhole_x, barrel) << lens;
   }
 }
 

@@ -16,10 +16,13 @@ struct LensSpec {
 
 // tessar: nearly distortion free (under 0.25 px at 640x480). sonnar: strong barrel, still
 // monotonic over the whole image (1 + 3 k1 r^2 + 5 k2 r^4 > 0 for every r), so every
-// pixel has exactly one ray.
+// pixel has exactly one ray. hologon: an ultra-wide angle, its barrel monotonic too
+// (1 - 1.05 r^2 + 0.6 r^4 > 0). telephoto: narrow, with pincushion distortion.
 constexpr LensSpec kLenses[] = {
     {"tessar", 75.0, -0.0006, 0.0},
     {"sonnar", 85.0, -0.3, 0.1},
+    {"hologon", 110.0, -0.35, 0.12},
+    {"telephoto", 55.0, 0.08, 0.0},
 };
 
 // Reference width the pixel offsets of the principal point are given for.

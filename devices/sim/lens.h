@@ -9,7 +9,7 @@
 
 namespace autocal {
 
-// "tessar", "sonnar".
+// "tessar", "sonnar", "hologon", "telephoto".
 std::vector<std::string> LensNames();
 
 // The named lens at the given image size. Its parameters scale with the resolution (fx

@@ -93,7 +93,7 @@ struct Scenario {
   std::string name;              // "office", ...; file name for scenario files.
   std::string description;       // One line for humans.
   std::string scene = "office";  // office, corridor, outdoor or checkerboard.
-  std::string lens = "tessar";   // tessar or sonnar.
+  std::string lens = "tessar";   // LensNames(): tessar, sonnar, hologon, telephoto.
   int width = 640;               // Image size in pixels.
   int height = 480;
   double fps = 30.0;                 // Frame rate.

@@ -188,8 +188,9 @@ class VestCheckTest : public QObject {
 
   // The readout field: "as the source states" until set. The simulated vest's rows read
   // over 30 ms, which it states; given 0 (a global shutter, as a live camera's check told
-  // nothing would take) the walk has no update accepted: inconclusive, where as stated it
-  // passes (RunsToItsVerdictAndSavesTheReport's walk, and tests/vest_check_test.cc).
+  // nothing would take) the walk's attempts come out wrong (a jump) and too few are
+  // accepted: inconclusive, where as stated it passes (RunsToItsVerdictAndSavesTheReport's
+  // walk, and tests/vest_check_test.cc).
   void ReadoutGivenReachesTheCheck() {
     VestCheckDialog dialog(kVest + QStringLiteral(",readout_ms=30"));
     dialog.show();
@@ -205,7 +206,8 @@ class VestCheckTest : public QObject {
     QVERIFY(finished.wait(180000) || !finished.isEmpty());
     QVERIFY(dialog.result());
     QCOMPARE(dialog.result()->verdict, VestVerdict::kInconclusive);
-    QCOMPARE(dialog.result()->accepted_in_regime, 0);
+    QVERIFY(dialog.result()->accepted_in_regime < VestCheckOptions().min_accepted);
+    QVERIFY(!dialog.result()->alarms.empty());
   }
 
   // Fog and a noise burst during the walk (the simulator's transient scenario, 8 to 12 s):
