@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "devices/sim/lens.h"
 #include "pipeline/anchored_tracks.h"
 #include "pipeline/flow.h"
 #include "tests/sim_test_util.h"
@@ -330,19 +331,13 @@ TEST(AnchoredTracks, APlaneWhoseHomographyIsOffKeepsItsPoints) {
   EXPECT_LT(measured_fraction(1.0), 0.7) << "against the median alone, about half go";
 }
 
-// A plane slides across the view of a 110 deg lens (k1 -0.35, k2 0.12 at 320x240, as the
-// simulator's `wide`), from near the centre of the image to its edge, where the lens
+// A plane slides across the view of a 110 deg lens (the simulator's hologon: k1 -0.35,
+// k2 0.12) at 320x240, from near the centre of the image to its edge, where the lens
 // bends a window's pixels by up to 0.3 px off the linearization at its centre: with the
 // anchor warped by that linearization, the points there were measured 0.26 px outward on
 // average.
 TEST(AnchoredTracks, StayOnTheirPointThroughAStronglyBendingLens) {
-  CameraIntrinsics wide = Pinhole();
-  wide.fx = 142.66;
-  wide.fy = 142.94;
-  wide.cx = 161.5;
-  wide.cy = 118.0;
-  wide.k1 = -0.35;
-  wide.k2 = 0.12;
+  const CameraIntrinsics wide = LensIntrinsics("hologon", 320, 240);
   // Frame k: the office frame in undistorted pixels, slid right by k * kSlide, through the lens.
   constexpr double kSlide = 50.0;
   const cv::Point2d texture_origin(320.0 - wide.cx, 240.0 - wide.cy);
