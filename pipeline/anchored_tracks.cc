@@ -82,7 +82,7 @@ std::optional<float> Standardize(const cv::Mat& patch, float min_spread, cv::Mat
 // patch nowhere on its edge off the linearization at its centre, and the affine warp
 // stands. A translation-only alignment takes the bend for a shift: outward at the edge of
 // a wide lens (110 deg at 320x240: 0.26 px on average past 60% of the half-diagonal), which
-// box 10 took for a weaker barrel there and a longer focal length (docs/calibration.md).
+// box 10 took for a weaker barrel there (docs/calibration.md, "Lenses it was not tuned on").
 constexpr double kLinearEnoughPx = 0.01;
 
 // `patch` (CV_32F) resampled bilinearly on a (2 half + 1)^2 grid whose corners, edge
