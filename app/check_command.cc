@@ -1,7 +1,6 @@
 // `autocal check`: the vest check headless (docs/vest_check.md). What to do next goes to
 // stderr as it changes; the verdict, the table and the reasons to stdout. The PDF report
 // comes from the workbench's dialog (it needs Qt's GUI module, which this tool does not load).
-#include <atomic>
 #include <cstdio>
 #include <optional>
 #include <string>
@@ -64,7 +63,8 @@ int Check(const QStringList& arguments) {
   parser.setApplicationDescription(
       "The vest check: walk with the vest for a minute while the pipeline calibrates the\n"
       "camera, then compare with the pre-mission calibration. Prints what to do next while\n"
-      "the walk lasts, then PASS, FAIL or INCONCLUSIVE with the reasons.\n"
+      "the walk lasts, then PASS, FAIL or INCONCLUSIVE with the reasons. Ctrl-C ends the\n"
+      "walk early: the verdict is then on what was seen, and the exit code is 130.\n"
       "Exit codes: 0 pass, 3 fail, 4 inconclusive, 1 the check could not run, 2 bad usage.");
   parser.addOptions({
       {"input", "camera:N for the vest's camera, sim:SCENARIO, or a recording.", "source"},
@@ -119,11 +119,19 @@ int Check(const QStringList& arguments) {
       std::fprintf(stderr, "%5.1f s  %3.0f%%  %s\n", check.elapsed_s(), 100 * check.Progress(),
                    guidance.c_str());
     };
-    const std::atomic<bool> stop{false};
+    const StopRequest& stop = CatchStopSignals();
     const VestCheckResult result =
         RunVestCheck(parser.value("input").toStdString(), parser.value("accel").toStdString(),
-                     premission, readout_ms, options, stop, hooks);
+                     premission, readout_ms, options, stop.requested, hooks);
     PrintResult(result);
+    if (stop.requested) {
+      // A script must not take a walk cut short for the one the procedure asks.
+      std::fprintf(stderr,
+                   "autocal check: stopped by %s after %.1f s of the %.0f s walk; the verdict "
+                   "is on what was seen\n",
+                   StopSignalName(stop.signal), result.seconds, options.duration_s);
+      return 128 + stop.signal;
+    }
     return result.verdict == VestVerdict::kPass   ? 0
            : result.verdict == VestVerdict::kFail ? kExitFail
                                                   : kExitInconclusive;

@@ -5,7 +5,8 @@
 set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
-trap 'rm -rf "$dir"' EXIT
+pid=""
+trap '[[ -n "$pid" ]] && kill -9 "$pid" 2>/dev/null; rm -rf "$dir"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
 
 code=0
@@ -43,4 +44,25 @@ code=0
 code=0
 "$autocal" check --input sim:office --prior "$dir/none.yaml" >/dev/null 2>&1 || code=$?
 [ "$code" = 1 ] || fail "a missing calibration file is a failure to run (exit $code)"
+
+# Ctrl-C ends the walk early: the verdict on what was seen, then the signal's exit code.
+"$autocal" check --input "sim:office,resolution=320x240,seconds=60" --seconds 600 \
+  >"$dir/out" 2>"$dir/err" &
+pid=$!
+for _ in $(seq 600); do
+  grep -qE '^ *[0-9.]+ s +[0-9]+%' "$dir/err" && break  # The walk's guidance has begun.
+  kill -0 "$pid" 2>/dev/null || fail "the check ended before it could be stopped: $(cat "$dir/err")"
+  sleep 0.1
+done
+sleep 1
+kill -INT "$pid"
+code=0
+wait "$pid" || code=$?
+pid=""
+cat "$dir/out"
+[ "$code" = 130 ] || fail "Ctrl-C stops the check (exit $code)"
+grep -qE '^(PASS|FAIL|INCONCLUSIVE)$' <(head -1 "$dir/out") || fail "the verdict comes first"
+grep -q 'stopped by SIGINT after .* of the 600 s walk' "$dir/err" || fail "the stop is said"
+walked=$(sed -nE 's/^([0-9.]+) s walked.*/\1/p' "$dir/out")
+awk -v s="$walked" 'BEGIN { exit !(s > 0 && s < 600) }' || fail "part of the walk ($walked s)"
 echo ok
