@@ -78,9 +78,9 @@ std::optional<float> Standardize(const cv::Mat& patch, float min_spread, cv::Mat
   return spread;
 }
 
-// Below this (px of the anchor's patch) the lens bends the resampling of the anchor's
-// patch nowhere on its edge off the linearization at its centre, and the affine warp
-// stands. A translation-only alignment takes the bend for a shift: outward at the edge of
+// Below this (px of the anchor's patch) the lens and the homography's perspective bend the
+// resampling of the anchor's patch nowhere on its edge off the linearization at its
+// centre, and the affine warp stands. A translation-only alignment takes the bend for a shift: outward at the edge of
 // a wide lens (110 deg at 320x240: 0.26 px on average past 60% of the half-diagonal), which
 // box 10 took for a weaker barrel there (docs/calibration.md, "Lenses it was not tuned on").
 constexpr double kLinearEnoughPx = 0.01;
@@ -92,18 +92,18 @@ void ResampleBiquadratic(const cv::Mat& patch, const std::array<cv::Point2d, 9>&
                          cv::Mat* out) {
   const int side = 2 * half + 1;
   out->create(side, side, CV_32F);
-  std::vector<std::array<double, 3>> lagrange(side);  // Weights of the three nodes on an axis.
-  for (int k = 0; k < side; ++k) {
+  // The weights of the three nodes on an axis at grid index k.
+  const auto lagrange = [half](int k) {
     const double t = double(k - half) / half;
-    lagrange[k] = {0.5 * t * (t - 1.0), 1.0 - t * t, 0.5 * t * (t + 1.0)};
-  }
+    return std::array<double, 3>{0.5 * t * (t - 1.0), 1.0 - t * t, 0.5 * t * (t + 1.0)};
+  };
   for (int row = 0; row < side; ++row) {
-    const std::array<double, 3>& wy = lagrange[row];
+    const std::array<double, 3> wy = lagrange(row);
     std::array<cv::Point2d, 3> column;  // Each column of nodes interpolated to this row.
     for (int j = 0; j < 3; ++j) column[j] = wy[0] * at[j] + wy[1] * at[3 + j] + wy[2] * at[6 + j];
     float* target = out->ptr<float>(row);
     for (int col = 0; col < side; ++col) {
-      const std::array<double, 3>& wx = lagrange[col];
+      const std::array<double, 3> wx = lagrange(col);
       const cv::Point2d p = wx[0] * column[0] + wx[1] * column[1] + wx[2] * column[2];
       const int x0 = std::clamp(int(std::floor(p.x)), 0, patch.cols - 2);
       const int y0 = std::clamp(int(std::floor(p.y)), 0, patch.rows - 2);
