@@ -30,14 +30,17 @@ void PrintError(const char* label, const CalibrationError& e) {
               e.fx_percent, e.fy_percent, e.cx_px, e.cy_px, e.distortion_px);
 }
 
-void PrintReport(const RunReport& report) {
+// `stills`: the report is of `run --stills`, whose frames are all read before any work.
+void PrintReport(const RunReport& report, bool stills) {
   const auto count = [&](Verdict v) {
     const auto found = report.verdicts.find(v);
     return found == report.verdicts.end() ? 0 : found->second;
   };
   std::printf("%zu frames (%.1f s of recording) in %.1f s: %.1f frames/s\n", report.frames,
               report.seconds, report.wall_seconds, report.fps);
-  if (report.stopped) {
+  if (report.stopped && stills) {
+    std::printf("stopped after %d attempts, before the rest were made\n", report.attempts);
+  } else if (report.stopped) {
     std::printf("stopped after %zu of the input's %zu frames\n", report.frames,
                 report.frames_in_input);
   }
@@ -268,9 +271,11 @@ int Run(const QStringList& arguments) {
     RunReport report;
     const StopRequest* stop = nullptr;  // Offline runs stop early on SIGINT or SIGTERM.
     if (stills) {
-      report = RunStillShots(*sequence, settings, [](const std::string& step) {
-        std::fprintf(stderr, "run: %s\n", step.c_str());
-      });
+      stop = &CatchStopSignals();
+      report = RunStillShots(
+          *sequence, settings,
+          [](const std::string& step) { std::fprintf(stderr, "run: %s\n", step.c_str()); },
+          &stop->requested);
     } else if (sequence) {
       ProgressPrinter printer("run", "frames");
       const auto show = [&](const RunProgress& progress) {
@@ -287,7 +292,7 @@ int Run(const QStringList& arguments) {
     } else {
       report = RunLive(*source, settings, seconds);
     }
-    PrintReport(report);
+    PrintReport(report, stills);
     if (parser.isSet("summary")) WriteSummary(parser.value("summary").toStdString(), report);
     if (export_format) {
       WriteCalibration(parser.value("export").toStdString(), report.final.calibration,
@@ -295,10 +300,14 @@ int Run(const QStringList& arguments) {
     }
     if (report.stopped) {
       // The files are whole, but of part of the input: a script must not take them for all.
+      const std::string done =
+          stills ? std::to_string(report.attempts) + " attempts"
+                 : std::to_string(report.frames) + " of " +
+                       std::to_string(report.frames_in_input) + " frames";
       std::fprintf(stderr,
-                   "autocal run: stopped by %s after %zu of %zu frames; the history, summary "
-                   "and export hold those frames\n",
-                   StopSignalName(stop->signal), report.frames, report.frames_in_input);
+                   "autocal run: stopped by %s after %s; the history, summary and export hold "
+                   "those\n",
+                   StopSignalName(stop->signal), done.c_str());
       return 128 + stop->signal;
     }
     return 0;

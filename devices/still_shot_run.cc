@@ -23,7 +23,8 @@ StillShotOptions StillShotOptionsFrom(const PipelineOptions& pipeline) {
 }
 
 RunReport RunStillShots(const Sequence& sequence, const RunSettings& settings,
-                        const std::function<void(const std::string&)>& step) {
+                        const std::function<void(const std::string&)>& step,
+                        const std::atomic<bool>* stop) {
   const auto start = std::chrono::steady_clock::now();
   const auto say = [&](const std::string& what) {
     if (step) step(what);
@@ -36,6 +37,7 @@ RunReport RunStillShots(const Sequence& sequence, const RunSettings& settings,
   acceptance.max_order = 0;
   CalibrationHistory history(report.prior, acceptance);
   const std::unique_ptr<HistoryStore> store = OpenNewHistory(settings);
+  if (store) store->Record(history);  // The start, so that a run stopped early says it.
 
   say("reading " + std::to_string(sequence.frame_count()) + " shots");
   std::vector<cv::Mat> shots;
@@ -65,9 +67,27 @@ RunReport RunStillShots(const Sequence& sequence, const RunSettings& settings,
   const int64_t last_ns = sequence.frame_time_ns(sequence.frame_count() - 1);
   report.seconds = 1e-9 * double(last_ns - first_ns);
 
-  StillShotOptions options = StillShotOptionsFrom(settings.pipeline);
-  const StillShotCalibration calibrated = CalibrateStillShots(shots, report.prior, options, say);
-  if (calibrated.material.planes.empty()) {
+  // The attempts, one second apart after the last shot, judged as a video's windows are,
+  // and in the history file as each is made: a run killed later keeps them.
+  std::vector<int64_t> times;
+  std::vector<CameraIntrinsics> outputs;
+  StillShotProgress progress;
+  progress.step = say;
+  progress.stop = stop;
+  progress.attempted = [&](const StillShotAttempt& attempt) {
+    const int64_t t_ns = last_ns + static_cast<int64_t>(times.size()) * 1'000'000'000;
+    history.Judge(t_ns, attempt.result);
+    if (store) store->Record(history);
+    say(attempt.shots + ": " + history.attempts().back().reason);
+    times.push_back(t_ns);
+    outputs.push_back(history.Current(t_ns).calibration);
+  };
+  const StillShotOptions options = StillShotOptionsFrom(settings.pipeline);
+  const StillShotCalibration calibrated =
+      CalibrateStillShots(shots, report.prior, options, progress);
+  report.stopped = calibrated.stopped;
+  report.frames_in_input = sequence.frame_count();
+  if (calibrated.material.planes.empty() && !calibrated.stopped) {
     throw Error(report.input + ": no plane found: " + std::to_string(calibrated.pairs_with_planes) +
                 " of " + std::to_string(calibrated.pairs) +
                 " pairs of shots share a plane by their keypoints, and none is seen in enough "
@@ -77,24 +97,13 @@ RunReport RunStillShots(const Sequence& sequence, const RunSettings& settings,
                 "20-40 degrees apart");
   }
 
-  // The attempts, one second apart after the last shot, judged as a video's windows are.
-  std::vector<int64_t> times;
-  std::vector<CameraIntrinsics> outputs;
-  for (size_t k = 0; k < calibrated.attempts.size(); ++k) {
-    const int64_t t_ns = last_ns + static_cast<int64_t>(k) * 1'000'000'000;
-    history.Judge(t_ns, calibrated.attempts[k].result);
-    say(calibrated.attempts[k].shots + ": " + history.attempts().back().reason);
-    if (store) store->Record(history);
-    times.push_back(t_ns);
-    outputs.push_back(history.Current(t_ns).calibration);
-  }
-  SummarizeHistory(history, times.back(), &report);
+  SummarizeHistory(history, times.empty() ? last_ns : times.back(), &report);
   for (const auto& [box, ms] : calibrated.timing_ms) report.timing[box] = TimingStatsOf(ms);
   report.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   report.fps = report.wall_seconds > 0 ? double(report.frames) / report.wall_seconds : 0.0;
   if (const std::vector<GroundTruthFrame>* truth = sequence.ground_truth();
-      truth && !truth->empty()) {
+      truth && !truth->empty() && !times.empty()) {
     // The lens of the last shot, after every attempt.
     const std::vector<GroundTruthFrame> lens(times.size(), truth->back());
     report.truth = CompareWithTruth(times, outputs, lens, settings.convergence);

@@ -5,6 +5,7 @@
 // other run (devices/offline_runner.h).
 #pragma once
 
+#include <atomic>
 #include <functional>
 #include <string>
 
@@ -23,11 +24,15 @@ StillShotOptions StillShotOptionsFrom(const PipelineOptions& pipeline);
 // Reads every frame of `sequence` as a shot (throws Error naming every file that cannot be
 // read, and when fewer than 3 shots are left), calibrates them from settings.prior (or
 // the sequence's pre-mission calibration), and judges the attempts in a history starting
-// from it, one second apart after the last shot's time, written to settings.history_path.
-// The report's final calibration is the history's; where the sequence has ground truth,
-// the output after each attempt is compared with it. `step`, when given, is told what is
-// being done. Throws Error when no plane is found in the shots, saying what was.
+// from it, one second apart after the last shot's time, each written to
+// settings.history_path as soon as it is made. The report's final calibration is the
+// history's; where the sequence has ground truth, the output after each attempt is
+// compared with it. `step`, when given, is told what is being done. Throws Error when no
+// plane is found in the shots, saying what was. When `stop` is given and becomes true
+// (from a signal handler, say), the work ends after the shot, pair or attempt in hand and
+// the report covers the attempts made (report.stopped; frames_in_input is the shots').
 RunReport RunStillShots(const Sequence& sequence, const RunSettings& settings,
-                        const std::function<void(const std::string&)>& step = {});
+                        const std::function<void(const std::string&)>& step = {},
+                        const std::atomic<bool>* stop = nullptr);
 
 }  // namespace autocal

@@ -267,9 +267,12 @@ std::vector<std::pair<std::string, CalibrationMaterial>> StillShotSubsets(
 StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
                                          const CameraIntrinsics& prior,
                                          const StillShotOptions& options,
-                                         const std::function<void(const std::string&)>& step) {
+                                         const StillShotProgress& progress) {
   const auto say = [&](const std::string& what) {
-    if (step) step(what);
+    if (progress.step) progress.step(what);
+  };
+  const auto stop_requested = [&] {
+    return progress.stop && progress.stop->load(std::memory_order_relaxed);
   };
   std::string why;
   if (!options.Check(&why)) throw Error("still-shot options: " + why);
@@ -288,11 +291,18 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   }
   StillShotCalibration out;
   const int shot_count = static_cast<int>(shots.size());
+  // Checked between one shot, pair or attempt and the next.
+  const auto stopped = [&] { return out.stopped = out.stopped || stop_requested(); };
+  const auto attempt_made = [&](StillShotAttempt attempt) {
+    out.attempts.push_back(std::move(attempt));
+    if (progress.attempted) progress.attempted(out.attempts.back());
+  };
 
   // Boxes 1-2: straight lines of every shot, and the distortion that straightens them.
   say("lines and distortion (boxes 1-2) in " + std::to_string(shot_count) + " shots");
   LensStage lens(options.lens);
   for (const cv::Mat& shot : shots) {
+    if (stopped()) return out;
     const LensSnapshot snapshot = lens.ProcessStill(shot, prior);
     out.timing_ms["lines"].push_back(snapshot.lines_ms);
   }
@@ -311,6 +321,7 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   std::vector<int> first_keypoint(shots.size() + 1, 0);
   std::vector<Keypoint> keypoints;
   for (int s = 0; s < shot_count; ++s) {
+    if (stopped()) return out;
     const auto start = std::chrono::steady_clock::now();
     cv::Mat green;
     if (shots[s].channels() == 1) {
@@ -333,6 +344,7 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   std::vector<PairPlane> pair_planes;
   for (int a = 0; a < shot_count; ++a) {
     for (int b = a + 1; b < shot_count; ++b) {
+      if (stopped()) return out;
       const auto start = std::chrono::steady_clock::now();
       const std::vector<ShotPlane> found =
           FindPlanesBetweenShots(sets[a], sets[b], out.working, options.planes, options.features);
@@ -430,6 +442,7 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   // A first solve over all the shots finds the tracks off their planes, and the shots it
   // can place: leaving out another would repeat the attempt on all of them, and the history
   // would take the copies for agreement.
+  if (stopped()) return out;
   say("self-calibration (box 10) on all the shots, to find tracks off their planes");
   std::vector<int> placed = ShotsSeen(out.material);
   {
@@ -437,7 +450,7 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
     SelfCalibrationResult first = SelfCalibrate(out.material, prior, options.calibration);
     out.timing_ms["calibration"].push_back(MillisecondsSince(start));
     if (!first.usable) {  // Fewer shots would not do better: the attempt on all is the one.
-      out.attempts.push_back({"all " + std::to_string(shot_count) + " shots", std::move(first)});
+      attempt_made({"all " + std::to_string(shot_count) + " shots", std::move(first)});
       return out;
     }
     out.outlier_tracks = LeaveOutOffPlaneTracks(first,
@@ -451,10 +464,12 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
 
   // Box 10 over all the shots, then over all but one in turn.
   for (auto& [name, material] : StillShotSubsets(out.material, placed, options.max_attempts)) {
+    if (stopped()) return out;
     say("self-calibration (box 10) on " + name);
     const auto start = std::chrono::steady_clock::now();
-    out.attempts.push_back({name, SelfCalibrate(material, prior, options.calibration)});
+    SelfCalibrationResult result = SelfCalibrate(material, prior, options.calibration);
     out.timing_ms["calibration"].push_back(MillisecondsSince(start));
+    attempt_made({name, std::move(result)});
   }
   return out;
 }

@@ -8,6 +8,7 @@
 // rendered with the prior: a wrong start converges as it does on video.
 #pragma once
 
+#include <atomic>
 #include <functional>
 #include <map>
 #include <string>
@@ -65,19 +66,29 @@ struct StillShotCalibration {
   int pairs_with_planes = 0;  // ...and those in which a plane was found.
   // The first is over all the shots; when box 10 can make nothing of them, it is the only one.
   std::vector<StillShotAttempt> attempts;
+  bool stopped = false;  // A stop request ended the work early: the attempts are those made.
   // Milliseconds per box, each time it ran: "lines" and "features" per shot, "distortion"
   // once, "planes" per pair of shots (matching and fitting), "calibration" per attempt.
   std::map<std::string, std::vector<double>> timing_ms;
 };
 
+// What a caller of CalibrateStillShots is told while it works, and how it is stopped.
+struct StillShotProgress {
+  std::function<void(const std::string&)> step;              // What is being done.
+  std::function<void(const StillShotAttempt&)> attempted;  // Each attempt, once made.
+  // When it becomes true (from a signal handler, say), the work returns after the shot,
+  // pair or attempt in hand, with what was done (StillShotCalibration::stopped).
+  const std::atomic<bool>* stop = nullptr;
+};
+
 // Shots are 8-bit BGR or grey images of one size, the prior's; at least 3 of them (throws
 // Error otherwise). Every attempt's SelfCalibrationResult says "no update" and why when the
 // shots do not pin the intrinsics down; material.planes is empty when no plane was found
-// (and no attempt is made). `step`, when given, is told what is being done.
-StillShotCalibration CalibrateStillShots(
-    const std::vector<cv::Mat>& shots, const CameraIntrinsics& prior,
-    const StillShotOptions& options = {},
-    const std::function<void(const std::string&)>& step = {});
+// (and no attempt is made).
+StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
+                                         const CameraIntrinsics& prior,
+                                         const StillShotOptions& options = {},
+                                         const StillShotProgress& progress = {});
 
 // The material of the attempts: all the shots, then each of the `placed` shots (ascending)
 // left out in turn (spread over them, up to max_attempts in all), with its observations

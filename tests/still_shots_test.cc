@@ -4,6 +4,7 @@
 // chained into compared with the simulator's plane labels; and the errors a folder of
 // shots can hold.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -235,6 +236,52 @@ TEST(StillShots, RunJudgesTheAttemptsAndComparesWithTheTruth) {
   const StoredHistory stored = HistoryStore(settings.history_path).Load();
   EXPECT_EQ(int(stored.attempts.size()), report.attempts);
   EXPECT_EQ(stored.premission, report.prior);
+}
+
+// A stop request (Ctrl-C in `autocal run --stills`) ends the work after the step in hand:
+// each attempt is in the history file as soon as it is made, and none is made after the
+// stop.
+TEST(StillShots, AStopKeepsTheAttemptsMadeAndMakesNoMore) {
+  const RenderedShots shots = RenderOfficeShots("sonnar", "640x480");
+  const test::TempDir dir;
+  std::filesystem::create_directories(dir / "shots");
+  for (size_t i = 0; i < shots.images.size(); ++i) {
+    cv::imwrite(dir / ("shots/shot" + std::to_string(i) + ".png"), shots.images[i]);
+  }
+  const std::unique_ptr<Sequence> sequence = OpenImageFolder(dir / "shots");
+  RunSettings settings;
+  settings.prior = test::WrongStart(shots.truth);
+
+  struct Case {
+    std::string stop_at;  // The stop is requested when a step starts with this.
+    int attempts;         // Those the report and the history file then hold.
+  };
+  for (const Case& c : {Case{"planes (box 6)", 0}, Case{"all 8 shots:", 1}}) {
+    SCOPED_TRACE("stopped at " + c.stop_at);
+    settings.history_path = dir / ("history" + std::to_string(c.attempts) + ".sqlite");
+    std::atomic<bool> stop{false};
+    std::vector<std::string> steps;
+    size_t in_file_at_stop = 0;  // A run killed then keeps these.
+    const RunReport report = RunStillShots(
+        *sequence, settings,
+        [&](const std::string& step) {
+          steps.push_back(step);
+          if (!step.starts_with(c.stop_at)) return;
+          stop = true;
+          in_file_at_stop = HistoryStore(settings.history_path).Load().attempts.size();
+        },
+        &stop);
+    EXPECT_EQ(in_file_at_stop, size_t(c.attempts));
+    EXPECT_TRUE(report.stopped);
+    EXPECT_EQ(report.frames_in_input, shots.images.size());
+    EXPECT_EQ(report.attempts, c.attempts);
+    EXPECT_EQ(report.final.calibration, settings.prior) << "one attempt cannot leave the prior";
+    ASSERT_FALSE(steps.empty());
+    EXPECT_TRUE(steps.back().starts_with(c.stop_at)) << "a step after the stop: " << steps.back();
+    const StoredHistory stored = HistoryStore(settings.history_path).Load();
+    EXPECT_EQ(int(stored.attempts.size()), c.attempts);
+    EXPECT_EQ(stored.premission, settings.prior);
+  }
 }
 
 // An image folder of shots: what can be wrong with it is said, naming the file.

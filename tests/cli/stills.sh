@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # `autocal run --stills` end to end: a folder of photographs (OpenCV's sample shots) and a
 # simulated recording taken as still shots write the history, summary and export of any
-# run (with the error against the truth where there is one); too few shots, an unreadable
-# one and a live input are refused with a message naming what is wrong. Accuracy is
-# tested in tests/still_shots_test.cc.
+# run (with the error against the truth where there is one); Ctrl-C stops it with those
+# files complete; too few shots, an unreadable one and a live input are refused with a
+# message naming what is wrong. Accuracy is tested in tests/still_shots_test.cc.
 set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
-trap 'rm -rf "$dir"' EXIT
+pid=""
+trap '[[ -n "$pid" ]] && kill -9 "$pid" 2>/dev/null; rm -rf "$dir"' EXIT
 source "$(dirname "${BASH_SOURCE[0]}")/common.bash"
 data=/usr/share/doc/opencv-doc/examples/data
 [[ -f "$data/left01.jpg" ]] || fail "OpenCV's sample images are missing: apt-get install opencv-doc"
@@ -37,6 +38,30 @@ attempts=$(grep -oE '"attempted": [0-9]+' "$dir/left.json" | grep -oE '[0-9]+$')
   --summary "$dir/sim.json" >"$dir/out" 2>/dev/null
 grep -q '^error against the truth:' "$dir/out" || fail "error against the truth reported"
 grep -q '"error": {"final": {"fx_percent":' "$dir/sim.json" || fail "summary has error"
+
+# Ctrl-C while the keypoints of 16 large shots are found (seconds before box 10): exit
+# 130, said on stderr, and the history, summary and export hold the start and no attempt.
+"$autocal" run --input "sim:office,seconds=16,fps=1,lens=sonnar,resolution=1280x720" --stills \
+  --history "$dir/int.sqlite" --summary "$dir/int.json" --export "$dir/int.yaml" --format opencv \
+  >"$dir/out" 2>"$dir/err" &
+pid=$!
+for _ in $(seq 600); do
+  grep -q '^run: keypoints (box 4)' "$dir/err" && break
+  kill -0 "$pid" 2>/dev/null || fail "the run ended before it could be stopped: $(cat "$dir/err")"
+  sleep 0.02
+done
+kill -INT "$pid"
+code=0
+wait "$pid" || code=$?
+pid=""
+cat "$dir/err" "$dir/out"
+[[ $code -eq 130 ]] || fail "Ctrl-C stops the run (exit $code)"
+grep -q '^autocal run: stopped by SIGINT after 0 attempts' "$dir/err" || fail "the stop is said"
+grep -q '^stopped after 0 attempts' "$dir/out" || fail "the report says it was stopped"
+grep -q '"stopped": true' "$dir/int.json" || fail "the summary says it was stopped"
+grep -q 'camera_matrix' "$dir/int.yaml" || fail "export written"
+"$autocal" export --history "$dir/int.sqlite" --format csv --out "$dir/int.csv" >/dev/null
+[[ $(wc -l <"$dir/int.csv") -eq 1 ]] || fail "the history holds no attempt: $(cat "$dir/int.csv")"
 
 mkdir "$dir/two" "$dir/broken"
 cp "$data/graf1.png" "$data/graf3.png" "$dir/two/"
