@@ -7,7 +7,7 @@ autocal="$1"
 dir="$(mktemp -d)"
 pid=""
 trap '[[ -n "$pid" ]] && kill -9 "$pid" 2>/dev/null; rm -rf "$dir"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/common.bash"
 
 code=0
 "$autocal" check --input "sim:office,resolution=320x240,seconds=8" >"$dir/out" 2>"$dir/err" || code=$?
@@ -49,16 +49,7 @@ code=0
 "$autocal" check --input "sim:office,resolution=320x240,seconds=60" --seconds 600 \
   >"$dir/out" 2>"$dir/err" &
 pid=$!
-for _ in $(seq 600); do
-  grep -qE '^ *[0-9.]+ s +[0-9]+%' "$dir/err" && break  # The walk's guidance has begun.
-  kill -0 "$pid" 2>/dev/null || fail "the check ended before it could be stopped: $(cat "$dir/err")"
-  sleep 0.1
-done
-sleep 1
-kill -INT "$pid"
-code=0
-wait "$pid" || code=$?
-pid=""
+signal_when INT '^ *[0-9.]+ s +[0-9]+%' "$dir/err" 1  # A second into the walk's guidance.
 cat "$dir/out"
 [ "$code" = 130 ] || fail "Ctrl-C stops the check (exit $code)"
 grep -qE '^(PASS|FAIL|INCONCLUSIVE)$' <(head -1 "$dir/out") || fail "the verdict comes first"

@@ -35,3 +35,22 @@ distortion_coefficients: !!opencv-matrix
    data: [ 0., 0., 0., 0., 0. ]
 YAML
 }
+
+# signal_when SIGNAL PATTERN FILE [DELAY]: once FILE (where the background job $pid writes)
+# has a line matching PATTERN (extended), waits DELAY seconds, sends SIGNAL to $pid and
+# waits for it to end; its exit code is left in $code and $pid is cleared. Fails when the
+# job ends first or no such line comes within 120 s.
+signal_when() {
+  local tries
+  for ((tries = 0; tries < 6000; ++tries)); do
+    grep -qE -- "$2" "$3" && break
+    kill -0 "$pid" 2>/dev/null || fail "ended before it could be stopped: $(tail -3 "$3")"
+    sleep 0.02
+  done
+  ((tries < 6000)) || fail "no '$2' within 120 s: $(tail -3 "$3")"
+  sleep "${4:-0}"
+  kill "-$1" "$pid"
+  code=0
+  wait "$pid" || code=$?
+  pid=""
+}

@@ -4,7 +4,8 @@
 set -euo pipefail
 autocal="$1"
 dir="$(mktemp -d)"
-trap 'rm -rf "$dir"' EXIT
+pid=""
+trap '[[ -n "$pid" ]] && kill -9 "$pid" 2>/dev/null; rm -rf "$dir"' EXIT
 source "$(dirname "${BASH_SOURCE[0]}")/common.bash"
 
 "$autocal" --help | grep -qE '^  run ' || fail "--help lists run"
@@ -79,17 +80,8 @@ interrupted_run() {  # interrupted_run SIGNAL NAME: stops a run once 20% is done
   "$autocal" run --input "sim:office,seconds=30,resolution=320x240" --history "$dir/$2.sqlite" \
     --summary "$dir/$2.json" --export "$dir/$2.yaml" --format opencv >"$dir/$2.out" \
     2>"$dir/$2.progress" &
-  local pid=$! waited=0
-  until grep -q '^run: 180/900 frames' "$dir/$2.progress"; do
-    sleep 0.2
-    waited=$((waited + 1))
-    [[ $waited -lt 600 ]] || fail "$2: no progress: $(cat "$dir/$2.progress")"
-  done
-  kill "-$1" $pid
-  set +e
-  wait $pid
-  code=$?
-  set -e
+  pid=$!
+  signal_when "$1" '^run: 180/900 frames' "$dir/$2.progress"
 }
 interrupted_run INT int
 [[ $code -eq 130 ]] || fail "SIGINT: exit $code: $(tail -3 "$dir/int.progress")"

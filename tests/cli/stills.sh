@@ -45,15 +45,7 @@ grep -q '"error": {"final": {"fx_percent":' "$dir/sim.json" || fail "summary has
   --history "$dir/int.sqlite" --summary "$dir/int.json" --export "$dir/int.yaml" --format opencv \
   >"$dir/out" 2>"$dir/err" &
 pid=$!
-for _ in $(seq 600); do
-  grep -q '^run: keypoints (box 4)' "$dir/err" && break
-  kill -0 "$pid" 2>/dev/null || fail "the run ended before it could be stopped: $(cat "$dir/err")"
-  sleep 0.02
-done
-kill -INT "$pid"
-code=0
-wait "$pid" || code=$?
-pid=""
+signal_when INT '^run: keypoints \(box 4\)' "$dir/err"
 cat "$dir/err" "$dir/out"
 [[ $code -eq 130 ]] || fail "Ctrl-C stops the run (exit $code)"
 grep -q '^autocal run: stopped by SIGINT after 0 attempts' "$dir/err" || fail "the stop is said"
