@@ -37,8 +37,9 @@ class HistoryWriter {
   void Submit(const CalibrationHistory& history);
   // Waits until everything submitted is in the file. Throws the Error a write stopped on.
   void Finish();
-  // At the end of a run, once the runtime has finished: Submit(history), then Finish().
-  // The runtime judges an attempt after the last frame (offline, one made within
+  // Submit(history), then Finish(). At the start of a run, so that the file holds the
+  // calibration it starts from before any frame; and at its end, once the runtime has
+  // finished: the runtime judges an attempt after the last frame (offline, one made within
   // judge_after_frames of the end; live, one whose solve ended after it) with no snapshot
   // to carry it to a frame callback.
   void Finish(const CalibrationHistory& history);

@@ -221,6 +221,9 @@ RunReport RunSequence(const Sequence& sequence, const RunSettings& settings,
   };
   runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
                                       on_frame, settings.solve);
+  // The start (the calibration and options the attempts are judged against) is in the file
+  // before the first frame: a run killed before its first attempt leaves one that says it.
+  if (history) history->Finish(runtime->history());
   // Stopped, the frames already fed are finished all the same.
   if (!PushSequence(sequence, runtime.get(), stop)) runtime->Finish();
   if (history) history->Finish(runtime->history());
@@ -283,6 +286,7 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
     };
     runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
                                         on_frame, settings.solve);
+    if (history) history->Finish(runtime->history());  // The start, as in RunSequence.
 
     using Clock = std::chrono::steady_clock;
     const auto seconds = [](double s) {

@@ -38,6 +38,9 @@ class ImageFileSequence : public Sequence {
   size_t frame_count() const override { return contents_.frame_times_ns.size(); }
   int64_t frame_time_ns(size_t index) const override { return contents_.frame_times_ns.at(index); }
   cv::Mat LoadFrame(size_t index) const override;
+  std::string FrameName(size_t index) const override {
+    return contents_.frame_paths.at(index).string();
+  }
   const std::vector<AccelSample>& accel() const override { return contents_.accel; }
   const std::vector<std::string>& warnings() const override { return contents_.warnings; }
   const std::vector<GroundTruthFrame>* ground_truth() const override;

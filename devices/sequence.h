@@ -77,6 +77,8 @@ class Sequence {
   virtual int64_t frame_time_ns(size_t index) const = 0;
   // 8-bit BGR frame. Throws Error (naming the file) when it cannot be read.
   virtual cv::Mat LoadFrame(size_t index) const = 0;
+  // Where a frame comes from, for a message about it: its file where it has one.
+  virtual std::string FrameName(size_t index) const { return "frame " + std::to_string(index + 1); }
   // Sorted by time.
   virtual const std::vector<AccelSample>& accel() const = 0;
   // Faults skipped because ReadOptions::truncate_at_fault was set.

@@ -17,6 +17,7 @@
 #include "pipeline/calibration_error.h"
 #include "pipeline/calibration_pipeline.h"
 #include "pipeline/error.h"
+#include "pipeline/history_store.h"
 #include "pipeline/material_window.h"
 #include "pipeline/option_fields.h"
 #include "pipeline/plumb_line.h"
@@ -363,6 +364,30 @@ TEST(RunSummary, JsonReadsBackWithOpenCv) {
   }
   ASSERT_TRUE(report.truth);
   EXPECT_NEAR(double(json["error"]["final"]["fx_percent"]), report.truth->final.fx_percent, 1e-12);
+}
+
+// A run killed before its first attempt leaves a history file that already holds the
+// calibration it started from and the options its attempts are judged with: the file is
+// read as a kill would leave it, while the first frame is in hand.
+TEST(RunSummary, TheHistoryFileHoldsTheStartBeforeTheFirstFrame) {
+  const test::TempDir dir;
+  const std::unique_ptr<Sequence> sequence =
+      MakeSimulatedSequence(ParseScenarioSpec("office,seconds=1,resolution=320x240"));
+  RunSettings settings;
+  settings.history_path = dir / "h.sqlite";
+  settings.prior = test::WrongStart(*sequence->session().premission_calibration);
+  std::optional<StoredHistory> at_first_frame;
+  const RunReport report = RunSequence(*sequence, settings, [&](const RunProgress& progress) {
+    if (progress.frame == 1) at_first_frame = HistoryStore(settings.history_path).Load();
+  });
+  ASSERT_TRUE(at_first_frame);
+  EXPECT_TRUE(at_first_frame->premission == *settings.prior);
+  EXPECT_TRUE(at_first_frame->attempts.empty());
+  // The options as the run judges with them (box 9's window length included).
+  const StoredHistory at_end = HistoryStore(settings.history_path).Load();
+  EXPECT_EQ(at_first_frame->options.attempt_window_s, at_end.options.attempt_window_s);
+  EXPECT_EQ(at_first_frame->options.attempt_window_s, settings.pipeline.material.window_s);
+  EXPECT_EQ(at_end.attempts.size(), size_t(report.attempts));
 }
 
 TEST(RunSummary, RefusesACalibrationForAnotherImageSize) {

@@ -61,6 +61,11 @@ expect_run 1 '2 images; still shots need at least 3' --input "$dir/two" --stills
 cp "$data"/left0[1-3].jpg "$dir/broken/"
 echo 'not a picture' >"$dir/broken/left04.jpg"
 expect_run 1 'left04.jpg: cannot be decoded' --input "$dir/broken" --stills
+# OpenCV's left.jpg is of another size than its left01-14.jpg: the file is named.
+mkdir "$dir/sizes"
+cp "$data/left.jpg" "$data"/left0[1-3].jpg "$dir/sizes/"
+expect_run 1 'sizes/left01.jpg (shot 2 in name order) is 640x480, .*sizes/left.jpg (the first) is' \
+  --input "$dir/sizes" --stills
 expect_run 2 '--stills goes with a recording or an image folder' --input camera:0 --stills
 expect_run 2 '--stills goes with a recording or an image folder' --input sim:office --live --stills
 echo PASS
