@@ -159,6 +159,8 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
                 Qt::QueuedConnection);
           };
           runtime = std::make_unique<Runtime>(prior, accel, options, RuntimeOptions{}, on_frame);
+          // The start in the file before the first frame, as autocal run writes it.
+          if (history) history->Finish(runtime->history());
           // setOptions sees the runtime from here until just before it is destroyed, however
           // this scope ends.
           struct Published {

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <QAction>
@@ -184,6 +185,7 @@ class OverlayTest : public QObject {
   void switchesPersist();  // And the threshold panel feeds the controller.
   void redrawRateWhilePipelineRuns();
   void boardsComeFromEveryJudgedAttempt();
+  void historyFileHoldsTheStartBeforeTheFirstFrame();
 
  private:
   std::unique_ptr<MainWindow> OpenWindow(const QString& source);
@@ -479,6 +481,35 @@ void OverlayTest::boardsComeFromEveryJudgedAttempt() {
   QCOMPARE(stored.attempts.size(), from_snapshots + 1);  // The premise.
   QCOMPARE(pipeline.attempts().size(), stored.attempts.size());
   QCOMPARE(pipeline.attempts().back()->record.t_ns, stored.attempts.back().t_ns);
+}
+
+// A workbench run killed before its first attempt leaves a history file that says what it
+// started from: the file holds the start, and the Calibration dock was told of it, before
+// the first frame's snapshot reaches the window.
+void OverlayTest::historyFileHoldsTheStartBeforeTheFirstFrame() {
+  auto window = std::make_unique<MainWindow>();
+  window->resize(1400, 900);
+  window->show();
+  window->activateWindow();
+  QVERIFY(QTest::qWaitForWindowActive(window.get()));
+  PipelineController& pipeline = *window->pipelineController();
+  QSignalSpy started(&pipeline, &PipelineController::historyStarted);
+  int started_at_first_frame = -1;
+  std::optional<StoredHistory> at_first_frame;
+  QObject::connect(window.get(), &MainWindow::snapshotReady, window.get(), [&] {
+    if (started_at_first_frame >= 0) return;
+    started_at_first_frame = static_cast<int>(started.count());
+    if (!pipeline.historyPath().isEmpty()) {
+      at_first_frame = HistoryStore(pipeline.historyPath().toStdString()).Load();
+    }
+  });
+  QSignalSpy finished(&pipeline, &PipelineController::finished);
+  window->open(QStringLiteral("sim:office,seconds=3,resolution=320x240"));
+  QVERIFY(finished.wait(kPipelineTimeoutMs));
+  QCOMPARE(started_at_first_frame, 1);
+  QVERIFY(at_first_frame);
+  QVERIFY(at_first_frame->attempts.empty());
+  QVERIFY(at_first_frame->premission == *window->sequence()->session().premission_calibration);
 }
 
 void OverlayTest::switchesPersist() {
