@@ -387,6 +387,8 @@ void MainWindow::createPipelineDocks() {
   tabifyDockWidget(calibration_dock_, scene_dock);
   plot_dock_->raise();  // Tabifying brought the new tab to the front.
   connect(this, &MainWindow::snapshotReady, scene_view_, &SceneView::showSnapshot);
+  connect(pipeline_, &PipelineController::attemptAfterLastFrame, scene_view_,
+          &SceneView::showAttempt);
   connect(pipeline_, &PipelineController::started, scene_view_, &SceneView::clear);
 
   view_menu_->insertAction(view_menu_->actions().at(4), scene_dock->toggleViewAction());

@@ -180,10 +180,15 @@ void PipelineController::start(std::shared_ptr<const Sequence> sequence) {
           } else {
             if (history) history->Finish(runtime->history());
             if (auto attempt = runtime->attempt_after_last_frame()) {
+              const CameraIntrinsics after =
+                  runtime->history().Current(attempt->record.t_ns).calibration;
+              const std::shared_ptr<const FrameSnapshot> last = runtime->latest();
+              std::optional<Eigen::Vector3d> gravity_cam;
+              if (last) gravity_cam = last->inertial.gravity_cam;
               QMetaObject::invokeMethod(
                   this,
-                  [this, generation, attempt = std::move(attempt)] {
-                    onAttemptAfterLastFrame(generation, attempt);
+                  [this, generation, attempt = std::move(attempt), after, gravity_cam] {
+                    onAttemptAfterLastFrame(generation, attempt, after, gravity_cam);
                   },
                   Qt::QueuedConnection);
             }
@@ -226,11 +231,13 @@ void PipelineController::onSnapshot(uint64_t generation,
   }
 }
 
-void PipelineController::onAttemptAfterLastFrame(uint64_t generation,
-                                                 std::shared_ptr<const AttemptOutcome> attempt) {
+void PipelineController::onAttemptAfterLastFrame(
+    uint64_t generation, std::shared_ptr<const AttemptOutcome> attempt,
+    const CameraIntrinsics& calibration, const std::optional<Eigen::Vector3d>& gravity_cam) {
   if (generation != generation_) return;
   attempts_.push_back(std::move(attempt));
   if (!current_.live && !attempts_.back()->boards.empty()) updateCurrent();
+  emit attemptAfterLastFrame(attempts_.back(), calibration, gravity_cam);
 }
 
 void PipelineController::onAttemptRecorded(uint64_t generation, const QString& path) {

@@ -91,7 +91,7 @@ class PipelineController : public QObject {
   // The run's judged attempts in judging order, the one judged after the last frame's
   // snapshot included once the run has ended: the boards overlay picks from these.
   const std::vector<std::shared_ptr<const AttemptOutcome>>& attempts() const { return attempts_; }
-  // The temporary history file of the run (empty before its first attempt).
+  // The temporary history file of the run (empty until it holds the run's start).
   const QString& historyPath() const { return history_path_; }
   // What is on screen for the current frame.
   const FrameOverlays& current() const { return current_; }
@@ -120,8 +120,14 @@ class PipelineController : public QObject {
   void started(int frames);
   // Every frame the pipeline has done, in frame order, on the GUI thread.
   void snapshotReady(std::shared_ptr<const autocal::FrameSnapshot> snapshot);
-  // The first attempt has been recorded in historyPath().
+  // historyPath() holds the run's start: before its first frame.
   void historyStarted(const QString& path);
+  // Once the run has ended, the attempt judged after the last frame's snapshot (which no
+  // snapshot carries): the calibration in effect after it, and gravity in the camera frame
+  // at the last frame, if known.
+  void attemptAfterLastFrame(std::shared_ptr<const autocal::AttemptOutcome> attempt,
+                             const autocal::CameraIntrinsics& calibration,
+                             const std::optional<Eigen::Vector3d>& gravity_cam);
   void finished(int frames, double seconds);
   void failed(const QString& message);
   void optionsRefused(const QString& message);
@@ -146,7 +152,9 @@ class PipelineController : public QObject {
 
   void onSnapshot(uint64_t generation, std::shared_ptr<const FrameSnapshot> snapshot);
   void onAttemptRecorded(uint64_t generation, const QString& path);
-  void onAttemptAfterLastFrame(uint64_t generation, std::shared_ptr<const AttemptOutcome> attempt);
+  void onAttemptAfterLastFrame(uint64_t generation, std::shared_ptr<const AttemptOutcome> attempt,
+                               const CameraIntrinsics& calibration,
+                               const std::optional<Eigen::Vector3d>& gravity_cam);
   void onEnded(uint64_t generation, const QString& error);
   void evictFarthest();
   // Lays out the current frame's overlays again and says so.

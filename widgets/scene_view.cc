@@ -140,6 +140,7 @@ void SceneView::paintEvent(QPaintEvent* event) {
 
 void SceneView::clear() {
   scene_.reset();
+  attempt_.reset();
   if (vtk_) rebuild();
   caption_->setText(tr("No attempt with camera poses yet: the scene is box 10's newest "
                        "attempt, drawn once one is judged."));
@@ -147,12 +148,19 @@ void SceneView::clear() {
 
 void SceneView::showSnapshot(std::shared_ptr<const FrameSnapshot> snapshot) {
   if (!snapshot || !snapshot->attempt) return;
-  std::optional<SceneGeometry> scene = MakeSceneGeometry(
-      *snapshot->attempt, snapshot->calibration.calibration, snapshot->inertial.gravity_cam);
+  showAttempt(snapshot->attempt, snapshot->calibration.calibration, snapshot->inertial.gravity_cam);
+}
+
+void SceneView::showAttempt(std::shared_ptr<const AttemptOutcome> attempt,
+                            const CameraIntrinsics& camera,
+                            const std::optional<Eigen::Vector3d>& gravity_cam) {
+  if (!attempt) return;
+  std::optional<SceneGeometry> scene = MakeSceneGeometry(*attempt, camera, gravity_cam);
   if (!scene) return;
   const bool first = !scene_;
   scene_ = std::move(scene);
-  const AttemptRecord& record = snapshot->attempt->record;
+  attempt_ = std::move(attempt);
+  const AttemptRecord& record = attempt_->record;
   caption_->setText(
       tr("Attempt %1 (%2): %3 posed views, %4 planes. %5 %6 %7 %8 %9")
           .arg(record.id)

@@ -41,10 +41,15 @@ class SceneView : public QWidget {
   // The newest scene: from a snapshot that carries a posed attempt, drawn with the
   // calibration in effect after it; other snapshots leave the scene as it is.
   void showSnapshot(std::shared_ptr<const FrameSnapshot> snapshot);
+  // The same for an attempt no snapshot carries (the one judged after the last frame):
+  // `camera` in effect after it, `gravity_cam` at its newest frame, if known.
+  void showAttempt(std::shared_ptr<const AttemptOutcome> attempt, const CameraIntrinsics& camera,
+                   const std::optional<Eigen::Vector3d>& gravity_cam);
   void clear();
 
-  // What is drawn (nothing before the first posed attempt).
+  // What is drawn (nothing before the first posed attempt), and the attempt it is of.
   const std::optional<SceneGeometry>& scene() const { return scene_; }
+  const std::shared_ptr<const AttemptOutcome>& attempt() const { return attempt_; }
   // Looks at the whole scene from behind and above the newest camera, gravity down.
   void resetCamera();
   // The rendered image, and where a world point lands in it (for tests; the view has been
@@ -66,6 +71,7 @@ class SceneView : public QWidget {
   std::unique_ptr<Vtk> vtk_;
   QLabel* caption_ = nullptr;
   std::optional<SceneGeometry> scene_;
+  std::shared_ptr<const AttemptOutcome> attempt_;
 };
 
 }  // namespace autocal

@@ -24,8 +24,10 @@
 
 #include "devices/recording_writer.h"
 #include "devices/sequence.h"
+#include "pipeline/history_replay.h"
 #include "pipeline/history_store.h"
 #include "pipeline/rectifier.h"
+#include "pipeline/scene_geometry.h"
 #include "tests/gui/screenshot.h"
 #include "widgets/calibration_plots.h"
 #include "widgets/calibration_series.h"
@@ -481,6 +483,19 @@ void OverlayTest::boardsComeFromEveryJudgedAttempt() {
   QCOMPARE(stored.attempts.size(), from_snapshots + 1);  // The premise.
   QCOMPARE(pipeline.attempts().size(), stored.attempts.size());
   QCOMPARE(pipeline.attempts().back()->record.t_ns, stored.attempts.back().t_ns);
+  // The 3-D view draws that last attempt, with the calibration the history holds after it.
+  const AttemptOutcome& last = *pipeline.attempts().back();
+  QVERIFY2(!last.cam_from_world.empty(), "the last attempt posed views");
+  QVERIFY(window->sceneView()->attempt());
+  QCOMPARE(window->sceneView()->attempt()->record.id, last.record.id);
+  const auto drawn = window->sceneView()->scene();
+  QVERIFY(drawn);
+  // The frustum's corner rays are the camera's: through the calibration after the attempt.
+  const CalibrationHistory replayed = ReplayHistory(stored);
+  const auto expected =
+      MakeSceneGeometry(last, replayed.Current(last.record.t_ns).calibration, std::nullopt);
+  QVERIFY(expected);
+  for (int k = 0; k < 5; ++k) QVERIFY((drawn->frustum[k] - expected->frustum[k]).norm() < 1e-9);
 }
 
 // A workbench run killed before its first attempt leaves a history file that says what it
