@@ -286,7 +286,9 @@ RunReport RunSource(FrameSource& source, const RunSettings& settings,
     };
     runtime = std::make_unique<Runtime>(report.prior, accel, settings.pipeline, runtime_options,
                                         on_frame, settings.solve);
-    if (history) history->Finish(runtime->history());  // The start, as in RunSequence.
+    // The start, as in RunSequence, but not waited for: a live camera is never held up by
+    // the disk or by another program's lock on the file.
+    if (history) history->Submit(runtime->history());
 
     using Clock = std::chrono::steady_clock;
     const auto seconds = [](double s) {
