@@ -81,6 +81,7 @@ class AccelOverrideSequence : public Sequence {
   size_t frame_count() const override { return base_->frame_count(); }
   int64_t frame_time_ns(size_t index) const override { return base_->frame_time_ns(index); }
   cv::Mat LoadFrame(size_t index) const override { return base_->LoadFrame(index); }
+  std::string FrameName(size_t index) const override { return base_->FrameName(index); }
   const std::vector<AccelSample>& accel() const override { return accel_; }
   const std::vector<std::string>& warnings() const override { return warnings_; }
   const std::vector<GroundTruthFrame>* ground_truth() const override {
