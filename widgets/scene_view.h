@@ -42,7 +42,8 @@ class SceneView : public QWidget {
   // calibration in effect after it; other snapshots leave the scene as it is.
   void showSnapshot(std::shared_ptr<const FrameSnapshot> snapshot);
   // The same for an attempt no snapshot carries (the one judged after the last frame):
-  // `camera` in effect after it, `gravity_cam` at its newest frame, if known.
+  // `camera` in effect after it, `gravity_cam` in the camera frame at the last frame, if
+  // known.
   void showAttempt(std::shared_ptr<const AttemptOutcome> attempt, const CameraIntrinsics& camera,
                    const std::optional<Eigen::Vector3d>& gravity_cam);
   void clear();
