@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -26,8 +27,8 @@
 #include "devices/runtime.h"
 #include "devices/sim/simulator.h"
 #include "devices/source.h"
-#include "pipeline/history_store.h"
 #include "pipeline/calibration_error.h"
+#include "pipeline/history_store.h"
 #include "test_util.h"
 
 namespace autocal {
@@ -199,6 +200,38 @@ TEST(Runtime, LiveRunKeepsUpWhileTheHistoryFileIsLocked) {
       << "two attempts judged while the file was locked";
   EXPECT_LT(report.live->pipeline_dropped, 10u) << "frames the pipeline dropped";
   EXPECT_EQ(stored.attempts.size(), size_t(report.attempts));
+}
+
+// Live, the history's start is handed to the writer as the run starts, without waiting for
+// it: the file holds it long before the first attempt (2 s into the walk), so a run killed
+// then leaves a file that says what it started from.
+TEST(Runtime, LiveRunWritesTheStartBeforeItsFirstAttempt) {
+  auto walk = std::make_unique<InMemorySequence>(Walk(3.0));
+  const CameraIntrinsics truth = walk->ground_truth()->front().intrinsics;
+  const CameraIntrinsics premission = *walk->session().premission_calibration;
+  const test::TempDir dir;
+  RunSettings settings;
+  settings.history_path = dir / "history.sqlite";
+  settings.solve = JitteredStandIn(truth, 0);
+  SourceOptions play;
+  play.real_time = true;
+  const std::unique_ptr<FrameSource> source = PlaySequence(std::move(walk), play);
+  std::optional<StoredHistory> early;
+  LiveRunControl control;
+  control.progress_interval_s = 0.1;
+  control.progress = [&](const RunProgress&) {
+    if (early) return;
+    // The writer's commit takes milliseconds; a second is the limit, not the expectation.
+    const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+    do {
+      early = HistoryStore(settings.history_path).Load();
+    } while (!(early->premission == premission) && std::chrono::steady_clock::now() < limit);
+  };
+  const RunReport report = RunSource(*source, settings, control);
+  ASSERT_TRUE(early);
+  EXPECT_TRUE(early->premission == premission);
+  EXPECT_TRUE(early->attempts.empty()) << "read before the first attempt";
+  EXPECT_GT(report.attempts, 0);
 }
 
 // Offline, boxes 1-3 run ahead of boxes 4-9 as far as calibration_lag_frames lets them,
