@@ -52,10 +52,9 @@ RunReport RunStillShots(const Sequence& sequence, const RunSettings& settings,
   if (!unreadable.empty()) throw Error("cannot read every shot: " + unreadable);
   for (size_t i = 1; i < shots.size(); ++i) {
     if (shots[i].size() != shots[0].size()) {
-      throw Error(sequence.FrameName(i) + " (shot " + std::to_string(i + 1) +
-                  " in name order) is " + std::to_string(shots[i].cols) + "x" +
-                  std::to_string(shots[i].rows) + ", " + sequence.FrameName(0) +
-                  " (the first) is " + std::to_string(shots[0].cols) + "x" +
+      throw Error(sequence.FrameName(i) + " is " + std::to_string(shots[i].cols) + "x" +
+                  std::to_string(shots[i].rows) + " and " + sequence.FrameName(0) +
+                  ", the first shot, is " + std::to_string(shots[0].cols) + "x" +
                   std::to_string(shots[0].rows) + ": still shots come from one camera");
     }
   }

@@ -64,7 +64,7 @@ expect_run 1 'left04.jpg: cannot be decoded' --input "$dir/broken" --stills
 # OpenCV's left.jpg is of another size than its left01-14.jpg: the file is named.
 mkdir "$dir/sizes"
 cp "$data/left.jpg" "$data"/left0[1-3].jpg "$dir/sizes/"
-expect_run 1 'sizes/left01.jpg (shot 2 in name order) is 640x480, .*sizes/left.jpg (the first) is' \
+expect_run 1 'sizes/left01.jpg is 640x480 and .*sizes/left.jpg, the first shot, is 612x459' \
   --input "$dir/sizes" --stills
 expect_run 2 '--stills goes with a recording or an image folder' --input camera:0 --stills
 expect_run 2 '--stills goes with a recording or an image folder' --input sim:office --live --stills

@@ -190,6 +190,9 @@ class OverlayTest : public QObject {
   void historyFileHoldsTheStartBeforeTheFirstFrame();
 
  private:
+  // A main window on screen and active (null if it does not become so), nothing opened yet.
+  std::unique_ptr<MainWindow> ShownWindow();
+  // ShownWindow with `source` opened (its pipeline then runs); null if it does not open.
   std::unique_ptr<MainWindow> OpenWindow(const QString& source);
   // Runs the pipeline over `source`, then checks each of `layers` on the latest frame with
   // something for it to draw.
@@ -211,12 +214,18 @@ void OverlayTest::initTestCase() {
 
 void OverlayTest::init() { QSettings().clear(); }
 
-std::unique_ptr<MainWindow> OverlayTest::OpenWindow(const QString& source) {
+std::unique_ptr<MainWindow> OverlayTest::ShownWindow() {
   auto window = std::make_unique<MainWindow>();
   window->resize(1400, 900);
   window->show();
   window->activateWindow();
   if (!QTest::qWaitForWindowActive(window.get())) return nullptr;
+  return window;
+}
+
+std::unique_ptr<MainWindow> OverlayTest::OpenWindow(const QString& source) {
+  auto window = ShownWindow();
+  if (!window) return nullptr;
   QSignalSpy opened(window.get(), &MainWindow::opened);
   window->open(source);
   if (!opened.wait(kOpenTimeoutMs) || window->sequence() == nullptr) return nullptr;
@@ -502,11 +511,8 @@ void OverlayTest::boardsComeFromEveryJudgedAttempt() {
 // started from: the file holds the start, and the Calibration dock was told of it, before
 // the first frame's snapshot reaches the window.
 void OverlayTest::historyFileHoldsTheStartBeforeTheFirstFrame() {
-  auto window = std::make_unique<MainWindow>();
-  window->resize(1400, 900);
-  window->show();
-  window->activateWindow();
-  QVERIFY(QTest::qWaitForWindowActive(window.get()));
+  const auto window = ShownWindow();  // Opened below, once the spies are in place.
+  QVERIFY(window);
   PipelineController& pipeline = *window->pipelineController();
   QSignalSpy started(&pipeline, &PipelineController::historyStarted);
   int started_at_first_frame = -1;
