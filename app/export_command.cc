@@ -32,8 +32,8 @@ int Export(const QStringList& arguments) {
       "every attempt with its verdict and reason (--format " +
       QString::fromStdString(Joined(HistoryFormatNames())) +
       "), or, with --calibration, the filtered calibration at the end of the history or at\n"
-      "--at seconds (--format " + QString::fromStdString(Joined(CalibrationFormatNames())) +
-      ").");
+      "--at seconds, the one the run started from while it holds no attempt (--format " +
+      QString::fromStdString(Joined(CalibrationFormatNames())) + ").");
   parser.addOptions({
       {"history", "History file to read.", "file.sqlite"},
       {"out", "File to write (replaced).", "file"},
@@ -72,16 +72,27 @@ int Export(const QStringList& arguments) {
       return 0;
     }
     const CalibrationFormat calibration_format = CalibrationFormatFromName(format);
-    if (stored.attempts.empty()) {
+    if (stored.premission.width == 0) {
       throw Error(parser.value("history").toStdString(), 0,
-                  "holds no attempt: there is no calibration to export");
+                  "holds no start (its run stopped before writing the calibration it started "
+                  "from): there is no calibration to export");
     }
-    const int64_t t_ns =
-        parser.isSet("at") ? static_cast<int64_t>(at_s * 1e9) : stored.attempts.back().t_ns;
+    const int64_t t_ns = parser.isSet("at")        ? static_cast<int64_t>(at_s * 1e9)
+                         : stored.attempts.empty() ? 0
+                                                   : stored.attempts.back().t_ns;
     const FilteredCalibration filtered = ReplayHistory(stored).Current(t_ns);
     WriteCalibration(out, filtered.calibration, calibration_format);
-    std::printf("wrote the calibration at %.3f s (regime %d, trend over %d attempts) to %s\n",
-                1e-9 * double(t_ns), filtered.regime, filtered.points, out.c_str());
+    if (stored.attempts.empty()) {
+      // Before the first attempt the calibration in effect is the one the run started
+      // from: what `autocal run --export` writes for a run stopped that early.
+      std::printf(
+          "wrote the calibration the run started from (the history holds no attempt) "
+          "to %s\n",
+          out.c_str());
+    } else {
+      std::printf("wrote the calibration at %.3f s (regime %d, trend over %d attempts) to %s\n",
+                  1e-9 * double(t_ns), filtered.regime, filtered.points, out.c_str());
+    }
     return 0;
   } catch (const Error& error) {
     std::fprintf(stderr, "autocal %s: %s\n", qPrintable(name), error.what());

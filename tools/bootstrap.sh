@@ -14,7 +14,7 @@ packages=(
   qtbase5-dev libqt5charts5-dev libqt5svg5-dev libqt5sql5-sqlite
   libopencv-dev libopencv-contrib-dev libeigen3-dev libceres-dev
   libvtk9-qt-dev libvtk9-dev
-  libusb-1.0-0-dev libsqlite3-dev
+  libusb-1.0-0-dev libsqlite3-dev sqlite3
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth umockdev libumockdev-dev
   opencv-doc

@@ -54,6 +54,21 @@ grep -q '"stopped": true' "$dir/int.json" || fail "the summary says it was stopp
 grep -q 'camera_matrix' "$dir/int.yaml" || fail "export written"
 "$autocal" export --history "$dir/int.sqlite" --format csv --out "$dir/int.csv" >/dev/null
 [[ $(wc -l <"$dir/int.csv") -eq 1 ]] || fail "the history holds no attempt: $(cat "$dir/int.csv")"
+# As a calibration, a history with no attempt is the start the run exported; one with no
+# start either has no calibration to give.
+"$autocal" export --history "$dir/int.sqlite" --calibration --format opencv \
+  --out "$dir/start.yaml" >"$dir/out"
+grep -q 'the calibration the run started from' "$dir/out" || fail "the start said: $(cat "$dir/out")"
+cmp "$dir/int.yaml" "$dir/start.yaml" || fail "the start exported is the run's export"
+cp "$dir/int.sqlite" "$dir/no_start.sqlite"
+sqlite3 "$dir/no_start.sqlite" "delete from session"
+set +e
+"$autocal" export --history "$dir/no_start.sqlite" --calibration --format opencv \
+  --out "$dir/x.yaml" 2>"$dir/err"
+code=$?
+set -e
+[[ $code -eq 1 ]] && grep -q 'no_start.sqlite.*holds no start' "$dir/err" ||
+  fail "a history with no start: exit $code: $(cat "$dir/err")"
 
 mkdir "$dir/two" "$dir/broken"
 cp "$data/graf1.png" "$data/graf3.png" "$dir/two/"
