@@ -1,4 +1,5 @@
 // `autocal export`: a stored calibration history, whole or as the calibration it ends with.
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -50,6 +51,24 @@ int Export(const QStringList& arguments) {
   if (parser.isSet("at") && !parser.isSet("calibration")) {
     return UsageError(name, "--at goes with --calibration", parser);
   }
+  // A format of the other kind (json is both) is most likely a forgotten or stray
+  // --calibration: say which, rather than only that the name is unknown.
+  const std::string format = parser.value("format").toStdString();
+  const auto listed = [&format](const std::vector<std::string>& names) {
+    return std::find(names.begin(), names.end(), format) != names.end();
+  };
+  const bool known_as_history = listed(HistoryFormatNames());
+  const bool known_as_calibration = listed(CalibrationFormatNames());
+  if (parser.isSet("calibration") && known_as_history && !known_as_calibration) {
+    return UsageError(
+        name, parser.value("format") + " is a history format: it goes without --calibration",
+        parser);
+  }
+  if (!parser.isSet("calibration") && known_as_calibration && !known_as_history) {
+    return UsageError(
+        name, parser.value("format") + " is a calibration format: it goes with --calibration",
+        parser);
+  }
   double at_s = 0.0;
   if (parser.isSet("at")) {
     bool ok = false;
@@ -58,7 +77,6 @@ int Export(const QStringList& arguments) {
   }
 
   try {
-    const std::string format = parser.value("format").toStdString();
     const std::string out = parser.value("out").toStdString();
     const StoredHistory stored =
         HistoryStore(parser.value("history").toStdString(), HistoryStore::Mode::kOpenExisting)

@@ -39,6 +39,15 @@ set +e
 "$autocal" export --history "$dir/none.sqlite" --format csv --out "$dir/x.csv" 2>"$dir/err"; code=$?
 set -e
 [[ $code -eq 1 ]] && grep -q 'none.sqlite' "$dir/err" || fail "missing history file: $code $(cat "$dir/err")"
+# A format of the other kind is named as such (json is of both).
+for args in "--calibration --format csv:history format: it goes without" \
+  "--format ros:calibration format: it goes with"; do
+  set +e
+  "$autocal" export --history "$dir/h.sqlite" ${args%%:*} --out "$dir/x" 2>"$dir/err"; code=$?
+  set -e
+  [[ $code -eq 2 ]] && grep -q "${args#*:} --calibration" "$dir/err" ||
+    fail "export ${args%%:*}: exit $code: $(head -1 "$dir/err")"
+done
 
 # The exported calibration is a valid prior for another run.
 "$autocal" run --input "sim:office,seconds=2,resolution=320x240" --prior "$dir/final.yaml" \
