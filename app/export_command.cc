@@ -51,23 +51,20 @@ int Export(const QStringList& arguments) {
   if (parser.isSet("at") && !parser.isSet("calibration")) {
     return UsageError(name, "--at goes with --calibration", parser);
   }
-  // A format of the other kind (json is both) is most likely a forgotten or stray
+  // A format only of the other kind (json is both) is most likely a forgotten or stray
   // --calibration: say which, rather than only that the name is unknown.
   const std::string format = parser.value("format").toStdString();
+  const bool calibration = parser.isSet("calibration");
   const auto listed = [&format](const std::vector<std::string>& names) {
     return std::find(names.begin(), names.end(), format) != names.end();
   };
-  const bool known_as_history = listed(HistoryFormatNames());
-  const bool known_as_calibration = listed(CalibrationFormatNames());
-  if (parser.isSet("calibration") && known_as_history && !known_as_calibration) {
-    return UsageError(
-        name, parser.value("format") + " is a history format: it goes without --calibration",
-        parser);
-  }
-  if (!parser.isSet("calibration") && known_as_calibration && !known_as_history) {
-    return UsageError(
-        name, parser.value("format") + " is a calibration format: it goes with --calibration",
-        parser);
+  if (!listed(calibration ? CalibrationFormatNames() : HistoryFormatNames()) &&
+      listed(calibration ? HistoryFormatNames() : CalibrationFormatNames())) {
+    return UsageError(name,
+                      QString("%1 is a %2 format: it goes %3 --calibration")
+                          .arg(parser.value("format"), calibration ? "history" : "calibration",
+                               calibration ? "without" : "with"),
+                      parser);
   }
   double at_s = 0.0;
   if (parser.isSet("at")) {
@@ -81,7 +78,7 @@ int Export(const QStringList& arguments) {
     const StoredHistory stored =
         HistoryStore(parser.value("history").toStdString(), HistoryStore::Mode::kOpenExisting)
             .Load();
-    if (!parser.isSet("calibration")) {
+    if (!calibration) {
       const HistoryFormat history_format = HistoryFormatFromName(format);
       std::vector<HistoryEntry> entries;
       for (const AttemptRecord& record : stored.attempts) entries.push_back(ToHistoryEntry(record));
