@@ -15,9 +15,11 @@
 #include "devices/sequence.h"
 #include "devices/sim/lens.h"
 #include "devices/sim/simulator.h"
+#include "pipeline/calibration_history.h"
 #include "pipeline/calibration_io.h"
 #include "pipeline/error.h"
 #include "pipeline/lens_stage.h"
+#include "pipeline/text_format.h"
 
 namespace autocal::cli {
 
@@ -192,9 +194,10 @@ int Distortion(const QStringList& arguments) {
     options.pool_per_cell = 1000;  // Still images: keep every shape.
     LensStage stage(options);
     ProgressPrinter progress("distortion", "images");
-    size_t lines_found = 0, snakes = 0;
-    for (size_t i = 0; i < files.size(); ++i) {
-      const cv::Mat image = i == 0 ? first : cv::imread(files[i], cv::IMREAD_COLOR);
+    std::vector<cv::Mat> images = {first};
+    progress(1, files.size());
+    for (size_t i = 1; i < files.size(); ++i) {
+      cv::Mat image = cv::imread(files[i], cv::IMREAD_COLOR);
       if (image.empty()) throw Error(files[i], 0, "cannot decode as an image");
       if (image.size() != first.size()) {
         throw Error(files[i], 0,
@@ -202,29 +205,48 @@ int Distortion(const QStringList& arguments) {
                         ", the first was " + std::to_string(first.cols) + "x" +
                         std::to_string(first.rows));
       }
-      const LensSnapshot snapshot = stage.ProcessStill(image, prior);
-      lines_found += snapshot.lines.size();
-      snakes += snapshot.snakes.size();
+      images.push_back(std::move(image));
       progress(i + 1, files.size());
     }
-    const PlumbLineResult result = stage.EstimateNow(prior);
+    std::fprintf(stderr, "autocal distortion: lines and distortion in %zu images, up to %d rounds\n",
+                 images.size(), options.still_rounds);
+    const LensStage::StillsResult stills = stage.EstimateFromStills(images, prior);
+    const PlumbLineResult& result = stills.distortion;
+    size_t lines_found = 0, snakes = 0;
+    for (const LensSnapshot& snapshot : stills.snapshots) {
+      lines_found += snapshot.lines.size();
+      snakes += snapshot.snakes.size();
+    }
+    const DistortionObservability& o = result.observability;
     std::printf("%s\n", result.message.c_str());
+    std::printf("lines reach %.0f%% of the half-diagonal; points by radius (tenths):", 100 * o.covered_radius);
+    for (int count : o.radial_points) std::printf(" %d", count);
+    std::printf("\n");
 
     if (parser.isSet("summary")) {
-      const std::string path = parser.value("summary").toStdString();
-      cv::FileStorage summary(path, cv::FileStorage::WRITE | cv::FileStorage::FORMAT_JSON);
-      if (!summary.isOpened()) throw Error(path, 0, "cannot write the summary");
       const CameraIntrinsics& e = result.estimate;
-      summary << "images" << int(files.size()) << "lines_found" << int(lines_found) << "snakes"
-              << int(snakes) << "usable" << result.usable << "message" << result.message
-              << "focal_length_source" << focal_source << "lines_used" << result.lines_used
-              << "lines_rejected" << result.lines_rejected << "points_used" << result.points_used
-              << "rms_before_px" << result.rms_before_px << "rms_after_px" << result.rms_after_px
-              << "estimate"
-              << "{"
-              << "image_width" << e.width << "image_height" << e.height << "fx" << e.fx << "fy"
-              << e.fy << "cx" << e.cx << "cy" << e.cy << "k1" << e.k1 << "k2" << e.k2 << "p1"
-              << e.p1 << "p2" << e.p2 << "k3" << e.k3 << "}";
+      std::string json = "{\n";
+      json += "  \"images\": " + std::to_string(images.size()) + ",\n";
+      json += "  \"rounds\": " + std::to_string(stills.rounds) + ",\n";
+      json += "  \"lines_found\": " + std::to_string(lines_found) + ",\n";
+      json += "  \"snakes\": " + std::to_string(snakes) + ",\n";
+      json += "  \"usable\": " + std::string(result.usable ? "true" : "false") + ",\n";
+      json += "  \"message\": " + JsonString(result.message) + ",\n";
+      json += "  \"focal_length_source\": " + JsonString(focal_source) + ",\n";
+      json += "  \"lines_used\": " + std::to_string(result.lines_used) + ",\n";
+      json += "  \"lines_rejected\": " + std::to_string(result.lines_rejected) + ",\n";
+      json += "  \"points_used\": " + std::to_string(result.points_used) + ",\n";
+      json += "  \"rms_before_px\": " + JsonNumber(result.rms_before_px) + ",\n";
+      json += "  \"rms_after_px\": " + JsonNumber(result.rms_after_px) + ",\n";
+      json += "  \"observability\": " + ObservabilityJson(result.observability) + ",\n";
+      json += "  \"estimate\": {\"image_width\": " + std::to_string(e.width) +
+              ", \"image_height\": " + std::to_string(e.height);
+      const auto packed = e.Packed();
+      for (int i = 0; i < kNumIntrinsics; ++i) {
+        json += ", " + JsonString(IntrinsicName(i)) + ": " + JsonNumber(packed[i]);
+      }
+      json += "}\n}\n";
+      WriteTextFile(parser.value("summary").toStdString(), json);
     }
     if (!result.usable) return 1;
     if (parser.isSet("out")) {

@@ -138,9 +138,11 @@ struct FrameLog {
   int64_t first_ns = 0, last_ns = 0;
   std::vector<int64_t> t_ns;  // With keep_outputs only.
   std::vector<CameraIntrinsics> outputs;
+  std::optional<PlumbLineResult> plumb_line;  // Box 2's newest.
 
   void Add(const FrameSnapshot& snapshot) {
     times.Add(snapshot.timing);
+    if (snapshot.lens.distortion) plumb_line = snapshot.lens.distortion;
     if (frames++ == 0) first_ns = snapshot.t_ns;
     last_ns = snapshot.t_ns;
     if (keep_outputs) {
@@ -161,6 +163,7 @@ void CompleteReport(const Runtime& runtime, FrameLog log,
   report->fps = report->wall_seconds > 0 ? double(report->frames) / report->wall_seconds : 0.0;
 
   SummarizeHistory(runtime.history(), log.frames == 0 ? 0 : log.last_ns, report);
+  report->plumb_line = std::move(log.plumb_line);
   report->timing = log.times.Stats();
   const RuntimeStats stats = runtime.stats();
   if (stats.update_latency_ms.count() > 0) {
@@ -409,6 +412,15 @@ std::string SummaryJson(const RunReport& report) {
           ", \"no_update\": " + std::to_string(count(Verdict::kNoUpdate)) +
           ", \"alarm\": " + std::to_string(count(Verdict::kAlarm)) +
           ", \"new_regime\": " + std::to_string(count(Verdict::kNewRegime)) + "},\n";
+  if (report.plumb_line) {
+    const PlumbLineResult& p = *report.plumb_line;
+    json += "  \"plumb_line\": {\"usable\": " + std::string(p.usable ? "true" : "false") +
+            ", \"message\": " + JsonString(p.message) +
+            ", \"lines_used\": " + std::to_string(p.lines_used) +
+            ", \"rms_before_px\": " + JsonNumber(p.rms_before_px) +
+            ", \"rms_after_px\": " + JsonNumber(p.rms_after_px) +
+            ", \"observability\": " + ObservabilityJson(p.observability) + "},\n";
+  }
   json += "  \"no_update_reasons\": [";
   for (size_t i = 0; i < report.no_update_reasons.size(); ++i) {
     json += (i ? ", " : "") + JsonString(report.no_update_reasons[i]);

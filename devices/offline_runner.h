@@ -83,6 +83,9 @@ struct RunReport {
   std::map<Verdict, int> verdicts;
   std::vector<Alarm> alarms;
   std::vector<std::string> no_update_reasons;  // Distinct reasons, in order of first use.
+  // Box 2's newest plumb-line estimate, taken or not (what its lines constrain), if one was
+  // made.
+  std::optional<PlumbLineResult> plumb_line;
   // By box (BoxTimings::Named); "frame": boxes 1-9 and the judgement (box 10's solve runs
   // on its own worker); "update_latency": from the frame that closed an attempt's window
   // entering the runtime to the attempt's judgement in effect.

@@ -87,6 +87,7 @@ RunReport RunStillShots(const Sequence& sequence, const RunSettings& settings,
       CalibrateStillShots(shots, report.prior, options, progress);
   report.stopped = calibrated.stopped;
   report.frames_in_input = sequence.frame_count();
+  if (calibrated.distortion.lines_used > 0) report.plumb_line = calibrated.distortion;
   if (calibrated.material.planes.empty() && !calibrated.stopped) {
     throw Error(report.input + ": no plane found: " + std::to_string(calibrated.pairs_with_planes) +
                 " of " + std::to_string(calibrated.pairs) +

@@ -8,6 +8,8 @@
 #include <optional>
 
 #include <Eigen/Dense>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 
 #include "pipeline/stopwatch.h"
 
@@ -115,6 +117,12 @@ bool LensOptions::Check(std::string* error) const {
     why = "estimate_lag_frames must be in [0, estimate_every_frames)";
   } else if (estimate_per_cell < 1) {
     why = "estimate_per_cell must be at least 1";
+  } else if (still_rounds < 1) {
+    why = "still_rounds must be at least 1";
+  } else if (still_max_lines < 1) {
+    why = "still_max_lines must be at least 1";
+  } else if (still_max_snakes < 1) {
+    why = "still_max_snakes must be at least 1";
   }
   if (why.empty()) return true;
   if (error) *error = why;
@@ -130,7 +138,7 @@ void LensStage::set_options(const LensOptions& options) {
   tracker_.set_options(options.snakes);
 }
 
-void LensStage::AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_size) {
+void LensStage::AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_size, bool capped) {
   if (points.size() < 2) return;
   const Eigen::Vector2d middle = points[points.size() / 2];
   const Eigen::Vector2d chord = points.back() - points.front();
@@ -144,7 +152,7 @@ void LensStage::AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_siz
   std::deque<LineObservation>& bin = pool_[(row * columns + column) * 4 + orientation];
   bin.push_back({std::move(points)});
   ++pool_version_;
-  while (int(bin.size()) > options_.pool_per_cell) bin.pop_front();
+  while (capped && int(bin.size()) > options_.pool_per_cell) bin.pop_front();
 }
 
 size_t LensStage::pooled_shapes() const {
@@ -255,27 +263,154 @@ LensSnapshot LensStage::Process(int64_t t_ns, const cv::Mat& raw,
   return snapshot;
 }
 
+SnakeOptions LensStage::StillSnakes() const {
+  SnakeOptions snakes = options_.snakes;
+  snakes.max_snakes = std::max(snakes.max_snakes, options_.still_max_snakes);
+  snakes.adaptive_bend = true;
+  return snakes;
+}
+
+LineDetectorOptions LensStage::StillLines() const {
+  LineDetectorOptions lines = options_.lines;
+  lines.max_lines = std::max(lines.max_lines, options_.still_max_lines);
+  return lines;
+}
+
+void LensStage::GrowStill(SnakeTracker* tracker, const Gradients& gradients,
+                          cv::Size size) const {
+  // The image does not move: each round only grows the snakes along their edges.
+  const int rounds = 1 + std::max(size.width, size.height) /
+                             std::max(1, int(options_.snakes.spacing_px *
+                                             std::max(1, options_.snakes.max_grow_per_frame)));
+  for (int round = 0; round < rounds; ++round) {
+    tracker->Update(gradients, {}, Eigen::Vector2d::Zero(), size);
+  }
+}
+
 LensSnapshot LensStage::ProcessStill(const cv::Mat& raw, const CameraIntrinsics& calibration) {
   LensSnapshot snapshot;
   const auto start = std::chrono::steady_clock::now();
   const cv::Mat channel = rectifier_.Channel(raw);
   const Gradients gradients(channel, 1.0);
-  snapshot.lines = DetectLines(gradients, options_.lines);
-  SnakeTracker tracker(options_.snakes);
+  snapshot.lines = DetectLines(gradients, StillLines());
+  SnakeTracker tracker(StillSnakes());
   tracker.Update(gradients, snapshot.lines, {calibration.cx, calibration.cy}, channel.size());
-  // The image does not move: each round only grows the snakes along their edges, until
-  // they stop growing.
-  const int rounds = 1 + std::max(channel.cols, channel.rows) /
-                             std::max(1, int(options_.snakes.spacing_px *
-                                             std::max(1, options_.snakes.max_grow_per_frame)));
-  for (int round = 0; round < rounds; ++round) {
-    tracker.Update(gradients, {}, {calibration.cx, calibration.cy}, channel.size());
-  }
+  GrowStill(&tracker, gradients, channel.size());
   snapshot.snakes = tracker.snakes();
-  for (const RadonSnake& snake : snapshot.snakes) AddShape(snake.InnerVertices(), channel.size());
+  for (const RadonSnake& snake : snapshot.snakes) {
+    AddShape(snake.InnerVertices(), channel.size(), false);
+  }
   snapshot.pooled_shapes = static_cast<int>(pooled_shapes());
   snapshot.lines_ms = MillisecondsSince(start);
   return snapshot;
+}
+
+LensSnapshot LensStage::ProcessStillThrough(const cv::Mat& raw, const CameraIntrinsics& lens,
+                                            const cv::Mat& map1, const cv::Mat& map2,
+                                            const CameraIntrinsics& pinhole) {
+  LensSnapshot snapshot;
+  const auto start = std::chrono::steady_clock::now();
+  const cv::Mat channel = rectifier_.Channel(raw);
+  cv::Mat undistorted;
+  cv::remap(channel, undistorted, map1, map2, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+  // Lines are looked for where the undistorted view has image: beyond the raw frame it is
+  // black, and its border would read as lines.
+  std::vector<LineSegment> found = DetectLines(undistorted, StillLines());
+  std::vector<std::vector<Eigen::Vector2d>> polylines;
+  const double step_px = 2.0;  // Along the undistorted line: finer than any hinge spacing.
+  for (const LineSegment& line : found) {
+    std::vector<Eigen::Vector2d> raw_points;
+    const int steps = std::max(1, int(line.Length() / step_px));
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector2d q = line.start + (line.end - line.start) * (double(k) / steps);
+      const Eigen::Vector3d ray((q.x() - pinhole.cx) / pinhole.fx, (q.y() - pinhole.cy) / pinhole.fy,
+                                1.0);
+      raw_points.push_back(Project(lens, ray));
+    }
+    polylines.push_back(std::move(raw_points));
+  }
+  // Longest first: where two lines of the view fall on one edge, the longer seeds it.
+  std::sort(polylines.begin(), polylines.end(), [](const auto& a, const auto& b) {
+    return (a.back() - a.front()).squaredNorm() > (b.back() - b.front()).squaredNorm();
+  });
+  const Gradients gradients(channel, 1.0);
+  SnakeTracker tracker(StillSnakes());
+  // The tentative lens may be a few pixels off where the lines reached least.
+  constexpr double kSeedSearchPx = 3.0;
+  tracker.Seed(gradients, polylines, kSeedSearchPx, channel.size());
+  GrowStill(&tracker, gradients, channel.size());
+  snapshot.lines = std::move(found);
+  snapshot.snakes = tracker.snakes();
+  for (const RadonSnake& snake : snapshot.snakes) {
+    AddShape(snake.InnerVertices(), channel.size(), false);
+  }
+  snapshot.pooled_shapes = static_cast<int>(pooled_shapes());
+  snapshot.lines_ms = MillisecondsSince(start);
+  return snapshot;
+}
+
+LensStage::StillsResult LensStage::EstimateFromStills(const std::vector<cv::Mat>& raws,
+                                                      const CameraIntrinsics& initial,
+                                                      const std::function<bool()>& stop) {
+  StillsResult out;
+  const auto stopped = [&] { return stop && stop(); };
+  pool_.clear();
+  for (const cv::Mat& raw : raws) {
+    if (stopped()) return out;
+    out.snapshots.push_back(ProcessStill(raw, initial));
+  }
+  out.distortion = EstimateNow(initial);
+  out.rounds = 1;
+  while (out.rounds < options_.still_rounds && out.distortion.solved != initial) {
+    const CameraIntrinsics lens = out.distortion.solved;
+    // A pinhole view of the whole raw frame: its focal length shrunk until every raw border
+    // pixel falls inside (a barrel spreads the border outward).
+    double scale = 1.0;
+    const int w = lens.width, h = lens.height;
+    for (int k = 0; k <= 64; ++k) {
+      const double a = double(k) / 64;
+      for (const Eigen::Vector2d& border :
+           {Eigen::Vector2d(a * (w - 1), 0), Eigen::Vector2d(a * (w - 1), h - 1),
+            Eigen::Vector2d(0, a * (h - 1)), Eigen::Vector2d(w - 1, a * (h - 1))}) {
+        const auto ideal = UndistortPixel(lens, border);
+        if (!ideal) continue;  // Beyond the fold: not imaged by this lens.
+        const Eigen::Vector2d d = *ideal - Eigen::Vector2d(lens.cx, lens.cy);
+        if (std::abs(d.x()) > 1e-9)
+          scale = std::min(scale, (d.x() > 0 ? w - 1 - lens.cx : lens.cx) / std::abs(d.x()));
+        if (std::abs(d.y()) > 1e-9)
+          scale = std::min(scale, (d.y() > 0 ? h - 1 - lens.cy : lens.cy) / std::abs(d.y()));
+      }
+    }
+    constexpr double kSmallestScale = 0.25;
+    CameraIntrinsics pinhole = lens;
+    pinhole.k1 = pinhole.k2 = pinhole.k3 = pinhole.p1 = pinhole.p2 = 0.0;
+    pinhole.fx *= std::max(scale, kSmallestScale);
+    pinhole.fy *= std::max(scale, kSmallestScale);
+    cv::Mat map1, map2;
+    cv::Mat distortion = (cv::Mat_<double>(1, 5) << lens.k1, lens.k2, lens.p1, lens.p2, lens.k3);
+    cv::Mat lens_matrix, pinhole_matrix;
+    cv::eigen2cv(lens.CameraMatrix(), lens_matrix);
+    cv::eigen2cv(pinhole.CameraMatrix(), pinhole_matrix);
+    cv::initUndistortRectifyMap(lens_matrix, distortion, cv::noArray(), pinhole_matrix,
+                                {w, h}, CV_16SC2, map1, map2);
+
+    pool_.clear();
+    std::vector<LensSnapshot> snapshots;
+    for (const cv::Mat& raw : raws) {
+      if (stopped()) return out;
+      snapshots.push_back(ProcessStillThrough(raw, lens, map1, map2, pinhole));
+    }
+    PlumbLineResult next = EstimateNow(initial);
+    ++out.rounds;
+    const bool settled =
+        next.lines_used <= out.distortion.lines_used * 1.05 &&
+        MaxDistortionDifference(next.solved, lens,
+                                std::max(next.observability.covered_radius, 0.1)) < 0.1;
+    out.distortion = std::move(next);
+    out.snapshots = std::move(snapshots);
+    if (settled) break;
+  }
+  return out;
 }
 
 }  // namespace autocal

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <future>
 #include <map>
 #include <optional>
@@ -44,6 +45,12 @@ struct LensOptions {
   // the whole pool). Its solve's time grows faster than the number of shapes: 4 halves it,
   // but the tessar drift walk then ends 0.93% off in fy (the end-to-end test allows 0.75).
   int estimate_per_cell = 8;
+  // Still images (EstimateFromStills): rounds of boxes 1-2, each next one finding lines in
+  // the images undistorted by the estimate so far, and how many lines and snakes an image
+  // may give (no frame rate to keep up with).
+  int still_rounds = 4;
+  int still_max_lines = 200;
+  int still_max_snakes = 200;
 
   // Checks this struct and every nested one; the message names the field.
   bool Check(std::string* error) const;
@@ -81,6 +88,24 @@ class LensStage {
   // its curved edges, then pools their shapes. Snakes do not carry over between images.
   LensSnapshot ProcessStill(const cv::Mat& raw, const CameraIntrinsics& calibration);
 
+  // For a set of still images of one camera: boxes 1-2 in rounds. The first seeds snakes
+  // from the straight lines near the principal point of each raw image (ProcessStill), as
+  // only there does a strong lens leave them straight enough for the Radon transform. Each
+  // next round undistorts the images by the distortion the round before estimated, finds
+  // the lines that have become straight anywhere in them, carries them back into the raw
+  // images and follows them there with snakes, so that the arcs far out, which constrain
+  // the lens most, join in; the rounds end when they add no line and move the lens by
+  // under 0.1 px. The pool then holds the last round's shapes, and the result is its
+  // estimate from `initial`. `stop` is asked between images.
+  struct StillsResult {
+    PlumbLineResult distortion;
+    std::vector<LensSnapshot> snapshots;  // Per image, the last round's lines and snakes.
+    int rounds = 0;
+  };
+  StillsResult EstimateFromStills(const std::vector<cv::Mat>& raws,
+                                  const CameraIntrinsics& initial,
+                                  const std::function<bool()>& stop = {});
+
   void set_options(const LensOptions& options);
   const LensOptions& options() const { return options_; }
   // The camera's rolling shutter (SelfCalibrationOptions::readout_ms; 0: a global one): a
@@ -106,7 +131,18 @@ class LensStage {
 
  private:
   void Pool(const RadonSnake& snake, cv::Size image_size, int64_t t_ns);
-  void AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_size);
+  // One still image's snakes seeded along the lines of `undistorted` (the raw image seen
+  // through `lens` by a pinhole camera `pinhole`), grown to their ends and pooled.
+  LensSnapshot ProcessStillThrough(const cv::Mat& raw, const CameraIntrinsics& lens,
+                                   const cv::Mat& map1, const cv::Mat& map2,
+                                   const CameraIntrinsics& pinhole);
+  // Snakes grown along their edges on a still image until they stop growing.
+  void GrowStill(SnakeTracker* tracker, const Gradients& gradients, cv::Size size) const;
+  SnakeOptions StillSnakes() const;
+  LineDetectorOptions StillLines() const;
+  // `capped`: the bin keeps its newest pool_per_cell shapes (a video's); still images keep
+  // every shape, as they are all the material there is.
+  void AddShape(std::vector<Eigen::Vector2d> points, cv::Size image_size, bool capped = true);
 
   LensOptions options_;
   Rectifier rectifier_;

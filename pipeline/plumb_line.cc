@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -14,6 +15,7 @@
 
 #include "pipeline/line_detector.h"
 #include "pipeline/plumb_line_problem.h"
+#include "pipeline/text_format.h"
 
 namespace autocal {
 
@@ -29,6 +31,14 @@ bool PlumbLineOptions::Check(std::string* error) const {
     why << "min_points_per_line must be at least 3";
   } else if (max_iterations < 1) {
     why << "max_iterations must be at least 1";
+  } else if (!(min_covered_radius >= 0 && min_covered_radius <= 1.5)) {
+    why << "min_covered_radius must be in [0, 1.5]";
+  } else if (!(max_direction_share > 0 && max_direction_share <= 1)) {
+    why << "max_direction_share must be in (0, 1]";
+  } else if (!(max_sigma_px > 0)) {
+    why << "max_sigma_px must be positive";
+  } else if (!(min_straightening >= 0 && min_straightening < 1)) {
+    why << "min_straightening must be in [0, 1)";
   }
   if (why.str().empty()) return true;
   if (error) *error = why.str();
@@ -121,10 +131,152 @@ Solve SolveOnce(const std::vector<const LineObservation*>& lines, const CameraIn
   std::copy_n(intrinsics, kNumIntrinsics, solve.intrinsics.begin());
 
   if (!with_covariance) return solve;
-  if (auto covariance = MarginalCovariance(&problem, *ordering, intrinsics)) {
-    solve.covariance = std::move(*covariance);
+  // A line's points are one cluster: an edge's localization errors run along it. The unit
+  // covariance at 0.01 px keeps noiseless material from claiming certainty.
+  Eigen::MatrixXd clustered;
+  if (auto covariance = MarginalCovariance(&problem, *ordering, intrinsics, &clustered)) {
+    solve.covariance = clustered + 1e-4 * *covariance;
   }
   return solve;
+}
+
+// A change of the lens this large (px) must show in the lines' straightness: a refinement
+// of a good initial lens by a pixel or so barely moves the residual, and is no sign.
+constexpr double kLargeChangePx = 2.0;
+
+// Pixels at which an estimate's shift is judged: rings about the principal point out to
+// `radius` (px), those inside the image.
+std::vector<Eigen::Vector2d> SamplePixels(const CameraIntrinsics& camera, double radius) {
+  constexpr int kRings = 8, kAngles = 24;
+  std::vector<Eigen::Vector2d> pixels;
+  for (int ring = 1; ring <= kRings; ++ring) {
+    const double r = radius * ring / kRings;
+    for (int a = 0; a < kAngles; ++a) {
+      const double angle = 2.0 * M_PI * a / kAngles;
+      const Eigen::Vector2d p(camera.cx + r * std::cos(angle), camera.cy + r * std::sin(angle));
+      if (p.x() >= 0 && p.y() >= 0 && p.x() <= camera.width - 1 && p.y() <= camera.height - 1) {
+        pixels.push_back(p);
+      }
+    }
+  }
+  return pixels;
+}
+
+// The free intrinsics of a solve, in its covariance's order.
+std::vector<int> FreeIntrinsics(const PlumbLineOptions& options) {
+  std::vector<int> free;
+  if (options.estimate_centre) free.insert(free.end(), {kCx, kCy});
+  free.insert(free.end(), {kK1, kK2});
+  if (options.estimate_tangential) free.insert(free.end(), {kP1, kP2});
+  if (options.estimate_k3) free.push_back(kK3);
+  return free;
+}
+
+DistortionObservability Assess(const std::vector<const LineObservation*>& lines,
+                               const CameraIntrinsics& initial, const CameraIntrinsics& estimate,
+                               const Eigen::MatrixXd& covariance, double rms_before,
+                               double rms_after, const PlumbLineOptions& options) {
+  DistortionObservability o;
+  const double half_diagonal = 0.5 * std::hypot(estimate.width, estimate.height);
+  std::vector<double> radii;
+  struct Direction {
+    double theta;
+    int points;
+  };
+  std::vector<Direction> directions;
+  int total = 0;
+  for (const LineObservation* line : lines) {
+    for (const Eigen::Vector2d& p : line->points) {
+      const double r = std::hypot(p.x() - estimate.cx, p.y() - estimate.cy) / half_diagonal;
+      radii.push_back(r);
+      ++o.radial_points[std::min(int(r * o.kRadialBins), o.kRadialBins - 1)];
+    }
+    directions.push_back({FitLine(Undistorted(*line, estimate)).theta, int(line->points.size())});
+    total += int(line->points.size());
+  }
+  if (!radii.empty()) {
+    const size_t at = std::min(radii.size() - 1, size_t(0.95 * double(radii.size())));
+    std::nth_element(radii.begin(), radii.begin() + at, radii.end());
+    o.covered_radius = radii[at];
+  }
+  constexpr double kSameDirection = 20.0 * M_PI / 180.0;
+  for (const Direction& a : directions) {
+    int share = 0;
+    for (const Direction& b : directions) {
+      const double d = std::abs(std::remainder(a.theta - b.theta, M_PI));
+      if (d <= kSameDirection) share += b.points;
+    }
+    o.direction_share = std::max(o.direction_share, total ? double(share) / total : 0.0);
+  }
+
+  // The shift (raw pixel to the pinhole image of its ray) and its spread under the
+  // covariance, by central differences over each free parameter's own sigma.
+  const std::vector<int> free = FreeIntrinsics(options);
+  const bool have_covariance = covariance.rows() == Eigen::Index(free.size()) &&
+                               covariance.cols() == Eigen::Index(free.size());
+  const auto shift_at = [](const CameraIntrinsics& camera, const Eigen::Vector2d& pixel) {
+    return UndistortPixel(camera, pixel);
+  };
+  bool undistortable = true;
+  for (const Eigen::Vector2d& pixel : SamplePixels(estimate, o.covered_radius * half_diagonal)) {
+    const auto ideal = shift_at(estimate, pixel);
+    if (!ideal) {
+      undistortable = false;
+      continue;
+    }
+    o.max_shift_px = std::max(o.max_shift_px, (pixel - *ideal).norm());
+    if (const auto ray = Unproject(estimate, pixel)) {
+      o.change_px = std::max(o.change_px, (Project(initial, {ray->x(), ray->y(), 1.0}) - pixel).norm());
+    }
+    if (!have_covariance) continue;
+    Eigen::MatrixXd jacobian(2, Eigen::Index(free.size()));
+    bool differentiable = true;
+    for (size_t i = 0; i < free.size(); ++i) {
+      const double step = std::max(1e-3 * std::sqrt(std::max(covariance(i, i), 0.0)), 1e-12);
+      auto packed = estimate.Packed();
+      packed[free[i]] += step;
+      const auto plus = shift_at(CameraIntrinsics::FromPacked(packed, estimate.width, estimate.height), pixel);
+      packed[free[i]] -= 2 * step;
+      const auto minus = shift_at(CameraIntrinsics::FromPacked(packed, estimate.width, estimate.height), pixel);
+      if (!plus || !minus) {
+        differentiable = false;
+        break;
+      }
+      jacobian.col(Eigen::Index(i)) = (*plus - *minus) / (2 * step);
+    }
+    if (!differentiable) continue;
+    const Eigen::Matrix2d spread = jacobian * covariance * jacobian.transpose();
+    o.shift_sigma_px = std::max(o.shift_sigma_px,
+                                std::sqrt(std::max(spread.selfadjointView<Eigen::Upper>().eigenvalues().maxCoeff(), 0.0)));
+  }
+
+  std::ostringstream why;
+  why << std::fixed << std::setprecision(0);
+  const double covered_percent = std::round(100 * o.covered_radius);
+  if (o.covered_radius < options.min_covered_radius) {
+    why << "the lines reach only " << covered_percent << "% of the half-diagonal from the principal point ("
+        << 100 * options.min_covered_radius << "% needed), where the lens bends them little";
+  } else if (o.direction_share > options.max_direction_share) {
+    why << 100 * o.direction_share << "% of the line points run within 20 deg of one direction ("
+        << 100 * options.max_direction_share << "% allowed): one direction only";
+  } else if (!have_covariance) {
+    why << "the lines leave the distortion free (singular covariance)";
+  } else if (!undistortable) {
+    why << "the estimate folds the image within " << covered_percent << "% of the half-diagonal";
+  } else if (o.shift_sigma_px > options.max_sigma_px) {
+    why << "the shift within " << covered_percent << "% of the half-diagonal is uncertain by "
+        << std::setprecision(2) << o.shift_sigma_px << " px (1-sigma; " << options.max_sigma_px
+        << " px allowed)";
+  } else if (o.change_px > std::max(kLargeChangePx, 5.0 * o.shift_sigma_px) &&
+             rms_after > (1.0 - options.min_straightening) * rms_before) {
+    why << std::setprecision(3) << "the lines are about as straight under the initial lens ("
+        << rms_before << " px) as under the estimate (" << rms_after << " px), which moves it by "
+        << std::setprecision(1) << o.change_px << " px within " << std::setprecision(0)
+        << covered_percent << "% of the half-diagonal";
+  }
+  o.reason = why.str();
+  o.observable = o.reason.empty();
+  return o;
 }
 
 }  // namespace
@@ -421,14 +573,14 @@ PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observati
                                    const CameraIntrinsics& initial,
                                    const PlumbLineOptions& options) {
   PlumbLineResult result;
-  result.estimate = initial;
+  result.estimate = result.solved = initial;
   std::vector<const LineObservation*> lines;
   for (const LineObservation& line : observations) {
     if (int(line.points.size()) >= options.min_points_per_line) lines.push_back(&line);
   }
   if (int(lines.size()) < options.min_lines) {
     std::ostringstream message;
-    message << "no estimate: " << lines.size() << " lines with at least "
+    message << "not observable: " << lines.size() << " lines with at least "
             << options.min_points_per_line << " points, " << options.min_lines << " needed";
     result.message = message.str();
     return result;
@@ -468,19 +620,47 @@ PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observati
     result.message = "no estimate: the solver failed: " + solve.report;
     return result;
   }
-  result.estimate = CameraIntrinsics::FromPacked(solve.intrinsics, initial.width, initial.height);
+  const CameraIntrinsics estimate =
+      CameraIntrinsics::FromPacked(solve.intrinsics, initial.width, initial.height);
+  result.solved = estimate;
   result.covariance = solve.covariance;
   result.lines_used = static_cast<int>(lines.size());
   for (const LineObservation* line : lines) result.points_used += int(line->points.size());
   result.rms_before_px = PooledRms(lines, PerLineRms(lines, initial));
-  result.rms_after_px = PooledRms(lines, PerLineRms(lines, result.estimate));
-  result.usable = true;
+  result.rms_after_px = PooledRms(lines, PerLineRms(lines, estimate));
+  result.observability = Assess(lines, initial, estimate, result.covariance, result.rms_before_px,
+                                result.rms_after_px, options);
+  const DistortionObservability& o = result.observability;
   std::ostringstream message;
-  message << "k1=" << result.estimate.k1 << " k2=" << result.estimate.k2 << " from "
+  message << std::setprecision(3) << "k1=" << estimate.k1 << " k2=" << estimate.k2 << " from "
           << result.lines_used << " lines (" << result.lines_rejected << " rejected), "
-          << "straightness " << result.rms_before_px << " -> " << result.rms_after_px << " px";
+          << "straightness " << result.rms_before_px << " -> " << result.rms_after_px
+          << " px; lines reach " << std::fixed << std::setprecision(0) << 100 * o.covered_radius
+          << "% of the half-diagonal, shift there up to " << std::setprecision(1) << o.max_shift_px
+          << " +- " << std::setprecision(2) << o.shift_sigma_px << " px";
+  if (!o.observable) {
+    result.message = "not observable: " + o.reason + " (the initial distortion is kept; " +
+                     message.str() + ")";
+    return result;
+  }
+  result.estimate = estimate;
+  result.usable = true;
   result.message = message.str();
   return result;
+}
+
+std::string ObservabilityJson(const DistortionObservability& o) {
+  std::string json = "{\"observable\": " + std::string(o.observable ? "true" : "false") +
+                     ", \"reason\": " + JsonString(o.reason) + ", \"radial_points\": [";
+  for (int i = 0; i < o.kRadialBins; ++i) {
+    json += (i ? ", " : "") + std::to_string(o.radial_points[i]);
+  }
+  json += "], \"covered_radius\": " + JsonNumber(o.covered_radius) +
+          ", \"direction_share\": " + JsonNumber(o.direction_share) +
+          ", \"max_shift_px\": " + JsonNumber(o.max_shift_px) +
+          ", \"shift_sigma_px\": " + JsonNumber(o.shift_sigma_px) +
+          ", \"change_px\": " + JsonNumber(o.change_px) + "}";
+  return json;
 }
 
 CameraIntrinsics ScaleDistortionToFocal(const CameraIntrinsics& camera, double fx, double fy) {

@@ -4,6 +4,7 @@
 // world.
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -19,9 +20,18 @@ struct PlumbLineOptions {
   bool estimate_centre = false;      // Free distortion centre (= principal point).
   double loss_scale_px = 0.5;        // Cauchy loss scale on point-to-line distances.
   double outlier_factor = 3.0;       // Lines with RMS above this times the median are dropped.
-  int min_lines = 6;                 // Fewer lines give no estimate.
+  int min_lines = 6;                 // Fewer lines: not observable.
   int min_points_per_line = 5;       // Shorter polylines are ignored.
   int max_iterations = 50;           // Levenberg-Marquardt iterations per solve.
+  // What the lines must constrain for an estimate to be taken; short of it the result is
+  // "not observable" and the initial distortion is kept, since lines that do not bend under
+  // the lens leave it free to take any value (see DistortionObservability).
+  double min_covered_radius = 0.5;  // Supporting points must reach this far (of the half-diagonal).
+  double max_direction_share = 0.95;  // Most of the support allowed within 20 deg of one direction.
+  double max_sigma_px = 1.0;          // Largest 1-sigma of the shift within the covered radius, px.
+  // An estimate that moves a pixel within the covered radius by over max(2 px, 5 sigma) from
+  // the initial lens must straighten the lines by at least this fraction of their residual.
+  double min_straightening = 0.1;
 
   bool Check(std::string* error) const;
 };
@@ -31,10 +41,34 @@ struct LineObservation {
   std::vector<Eigen::Vector2d> points;
 };
 
+// What the lines behind an estimate constrain of the lens. Radii are from the principal
+// point (the distortion centre), in fractions of the image's half-diagonal.
+struct DistortionObservability {
+  static constexpr int kRadialBins = 10;
+  // Supporting points by radius, in tenths of the half-diagonal (the corners of an image
+  // whose principal point is off centre fall in the last bin).
+  std::array<int, kRadialBins> radial_points{};
+  double covered_radius = 0.0;   // 95% of the supporting points lie within this radius.
+  double direction_share = 0.0;  // Largest share of the points on lines within 20 deg of one direction.
+  // The largest shift the estimated distortion gives a pixel within the covered radius, and
+  // the largest 1-sigma of that shift there (from the covariance with a line's points taken
+  // as one cluster, their errors being correlated along an edge), px.
+  double max_shift_px = 0.0;
+  double shift_sigma_px = 0.0;
+  // The largest distance between the estimated and the initial lens within the covered
+  // radius, px: how far the estimate moved the lens.
+  double change_px = 0.0;
+  bool observable = false;
+  std::string reason;  // Why not observable; empty when it is.
+};
+
 struct PlumbLineResult {
   bool usable = false;        // False: not enough material or the solve failed.
   std::string message;        // Why not usable, or a one-line report.
   CameraIntrinsics estimate;  // The initial camera with the estimated distortion.
+  // What the solve ended on, whether taken or not (not observable); the initial camera
+  // when it failed.
+  CameraIntrinsics solved;
   // RMS distance of the undistorted points to their best lines, px, with the initial and
   // the estimated distortion (all lines used for the estimate).
   double rms_before_px = 0.0;
@@ -42,9 +76,16 @@ struct PlumbLineResult {
   int lines_used = 0;
   int lines_rejected = 0;  // Curved in the world (or mistracked): left out.
   int points_used = 0;
-  // Covariance of the free distortion coefficients, in the order k1, k2[, p1, p2][, k3].
+  // Covariance of the free distortion coefficients, in the order k1, k2[, p1, p2][, k3],
+  // with a line's points as one cluster (MarginalCovariance's clustered one).
   Eigen::MatrixXd covariance;
+  // Filled whenever a solve ended; `usable` needs `observable`. When the lines do not
+  // constrain the lens, `estimate` is the initial camera and the message says why.
+  DistortionObservability observability;
 };
+
+// The observability as a JSON object (the summaries' "observability" field).
+std::string ObservabilityJson(const DistortionObservability& observability);
 
 // Estimates the distortion (and, if asked, the distortion centre) starting from
 // `initial`. Its focal lengths are held: the plumb-line constraint fixes the distortion

@@ -152,16 +152,42 @@ double MedianBend(const std::vector<Eigen::Vector2d>& v, size_t begin, size_t en
 // more toward the border, so only nearby bends are a fair reference.
 constexpr size_t kBendNeighbours = 3;
 
+// The bend change past which a hinge of `v` counts as off its edge: three times the
+// polyline's own scatter of bend changes, within [lowest_deg, highest_deg]. Real texture
+// and JPEG put hinges 0.2-0.4 px off a smooth curve, which at a 12 px spacing scatters the
+// bends by 2-5 deg, against a few hundredths of a pixel on a clean edge; a jump to another
+// edge 2 px away bends by some 20 deg. Too short a polyline to say takes `lowest_deg`.
+double BendTolerance(const std::vector<Eigen::Vector2d>& v, double lowest_deg,
+                     double highest_deg) {
+  std::vector<double> changes;
+  for (size_t i = 1; i + 1 < v.size(); ++i) {
+    const size_t from = i > kBendNeighbours ? i - kBendNeighbours : 1;
+    changes.push_back(std::abs(Bend(v[i - 1], v[i], v[i + 1]) -
+                               MedianBend(v, from, i + kBendNeighbours + 1, i)));
+  }
+  if (changes.size() < 5) return lowest_deg;
+  std::nth_element(changes.begin(), changes.begin() + changes.size() / 2, changes.end());
+  const double scatter = 1.4826 * changes[changes.size() / 2];
+  return std::clamp(3.0 * scatter, lowest_deg, std::max(lowest_deg, highest_deg));
+}
+
+// How far a snake's bend change may go: with adaptive_bend up to four times the option,
+// so that an edge through clutter is still cut.
+double HighestTolerance(const SnakeOptions& options) {
+  return (options.adaptive_bend ? 4.0 : 1.0) * options.max_bend_change_deg;
+}
+
 // The lens bends a world line smoothly, so a hinge bends about as much as its
 // neighbours; a hinge that jumped to another edge, or an end that turned a corner onto
 // another line, bends unlike them. Cuts the polyline at such hinges and keeps its longest
 // run (with the matching entries of `locked`).
 void KeepLongestSmoothRun(std::vector<Eigen::Vector2d>* vertices, std::vector<bool>* locked,
-                          double max_bend_change_deg) {
+                          double lowest_deg, double highest_deg) {
   std::vector<Eigen::Vector2d>& v = *vertices;
   std::vector<bool> kinked(v.size(), false);
+  const double tolerance = BendTolerance(v, lowest_deg, highest_deg);
   while (true) {
-    double worst = max_bend_change_deg;
+    double worst = tolerance;
     size_t worst_index = 0;
     for (size_t i = 1; i + 1 < v.size(); ++i) {
       if (kinked[i]) continue;
@@ -201,8 +227,9 @@ std::vector<int> EdgeSigns(const std::vector<Eigen::Vector2d>& v, const Gradient
 }
 
 // One frame of tracking. Returns false when the snake lost its edge.
+// `lowest_deg`: the least bend change tolerated (the option, or the image's edge noise).
 bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& options,
-           cv::Size size) {
+           cv::Size size, double lowest_deg) {
   std::vector<Eigen::Vector2d>& v = snake->vertices;
   // Slide every hinge along its normal onto the edge in two passes: a wide search whose
   // median displacement says how far the whole snake moved, then a narrow one from there,
@@ -226,7 +253,7 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
     locked[i] = locked[i] && Inside(v[i], size, options.border_margin_px);
   }
 
-  KeepLongestSmoothRun(&v, &locked, options.max_bend_change_deg);
+  KeepLongestSmoothRun(&v, &locked, lowest_deg, HighestTolerance(options));
 
   // Trim unlocked ends; a snake with too many lost hinges inside is gone.
   size_t first = 0, last = v.size();
@@ -246,6 +273,7 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
   }
 
   // Grow at both ends while the edge goes on.
+  const double tolerance = BendTolerance(v, lowest_deg, HighestTolerance(options));
   for (int end = 0; end < 2; ++end) {
     if (end == 1) std::reverse(v.begin(), v.end());
     for (int k = 0; k < options.max_grow_per_frame; ++k) {
@@ -261,7 +289,7 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
       // Growing round a corner onto another line is not following the edge.
       const double bend = Bend(v[v.size() - 2], v.back(), candidate);
       const size_t from = v.size() > kBendNeighbours + 1 ? v.size() - kBendNeighbours - 1 : 1;
-      if (std::abs(bend - MedianBend(v, from, v.size())) > options.max_bend_change_deg) break;
+      if (std::abs(bend - MedianBend(v, from, v.size())) > tolerance) break;
       v.push_back(candidate);
     }
     if (end == 1) std::reverse(v.begin(), v.end());
@@ -277,7 +305,7 @@ bool Track(RadonSnake* snake, const Gradients& gradients, const SnakeOptions& op
     if (on_edge[i] && Inside(relocked[i], size, options.border_margin_px)) v[i] = relocked[i];
   }
   std::vector<bool> all_locked(v.size(), true);
-  KeepLongestSmoothRun(&v, &all_locked, options.max_bend_change_deg);
+  KeepLongestSmoothRun(&v, &all_locked, lowest_deg, HighestTolerance(options));
   if (v.size() < 3) return false;
   snake->polarities = EdgeSigns(v, gradients);
   ++snake->age;
@@ -299,9 +327,24 @@ double DistanceToPolyline(const Eigen::Vector2d& p, const std::vector<Eigen::Vec
 
 void SnakeTracker::Update(const Gradients& gradients, const std::vector<LineSegment>& lines,
                           const Eigen::Vector2d& principal_point, cv::Size image_size) {
+  // The image's edge noise, from the snakes long enough to show it, for those too short:
+  // a seed of a few hinges on a noisy edge would otherwise be cut at its first bend.
+  std::vector<double> tolerances;
+  for (const RadonSnake& snake : snakes_) {
+    if (options_.adaptive_bend && snake.vertices.size() >= 8) {
+      tolerances.push_back(BendTolerance(snake.vertices, options_.max_bend_change_deg,
+                                         HighestTolerance(options_)));
+    }
+  }
+  double lowest = options_.max_bend_change_deg;
+  if (tolerances.size() >= 3) {
+    std::nth_element(tolerances.begin(), tolerances.begin() + tolerances.size() / 2,
+                     tolerances.end());
+    lowest = tolerances[tolerances.size() / 2];
+  }
   std::vector<RadonSnake> kept;
   for (RadonSnake& snake : snakes_) {
-    if (Track(&snake, gradients, options_, image_size)) kept.push_back(std::move(snake));
+    if (Track(&snake, gradients, options_, image_size, lowest)) kept.push_back(std::move(snake));
   }
   snakes_ = std::move(kept);
 
@@ -324,6 +367,43 @@ void SnakeTracker::Update(const Gradients& gradients, const std::vector<LineSegm
     const std::vector<bool> locked =
         Lock(&snake.vertices, gradients, 1.5, options_.min_edge_strength);
     if (std::count(locked.begin(), locked.end(), false) > 0) continue;
+    snake.polarities = EdgeSigns(snake.vertices, gradients);
+    snake.id = next_id_++;
+    snakes_.push_back(std::move(snake));
+  }
+}
+
+void SnakeTracker::Seed(const Gradients& gradients,
+                        const std::vector<std::vector<Eigen::Vector2d>>& polylines,
+                        double search_px, cv::Size image_size) {
+  for (const std::vector<Eigen::Vector2d>& polyline : polylines) {
+    if (int(snakes_.size()) >= options_.max_snakes) break;
+    if (polyline.size() < 2) continue;
+    const Eigen::Vector2d middle = polyline[polyline.size() / 2];
+    const bool followed = std::any_of(snakes_.begin(), snakes_.end(), [&](const RadonSnake& s) {
+      return DistanceToPolyline(middle, s.vertices) < 2.0;
+    });
+    if (followed) continue;
+    std::vector<Eigen::Vector2d> v = Resample(polyline, options_.spacing_px);
+    if (v.size() < 3) continue;
+    std::vector<bool> locked = Lock(&v, gradients, search_px, options_.min_edge_strength);
+    for (size_t i = 0; i < v.size(); ++i) {
+      locked[i] = locked[i] && Inside(v[i], image_size, options_.border_margin_px);
+    }
+    size_t begin = 0, best_begin = 0, best_end = 0;
+    for (size_t i = 0; i <= v.size(); ++i) {
+      if (i < v.size() && locked[i]) continue;
+      if (i - begin > best_end - best_begin) {
+        best_begin = begin;
+        best_end = i;
+      }
+      begin = i + 1;
+    }
+    if (best_end - best_begin < 3) continue;
+    // Shorter than a seed may be: growing along its edge, it reaches its length or is
+    // dropped when next tracked, as a snake that lost its edge is.
+    RadonSnake snake;
+    snake.vertices.assign(v.begin() + best_begin, v.begin() + best_end);
     snake.polarities = EdgeSigns(snake.vertices, gradients);
     snake.id = next_id_++;
     snakes_.push_back(std::move(snake));

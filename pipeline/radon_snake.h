@@ -21,6 +21,11 @@ struct SnakeOptions {
   // A hinge bending this much more or less than the snake's median bend has jumped to
   // another edge or turned a corner (lens bends change slowly along a line).
   double max_bend_change_deg = 2.5;
+  // Whether a noisy edge (real texture, JPEG) raises that limit to three times its own
+  // scatter of bends, up to four times the option. Still images take it: each snake there
+  // is tracked on one image, and a fixed limit cut real edges into pieces too short to
+  // keep. Video does not: from frame to frame a looser snake drifts onto neighbouring edges.
+  bool adaptive_bend = false;
   double min_length_px = 60.0;    // Snakes shorter than this are seeded neither kept.
   int max_grow_per_frame = 4;     // Hinges added at each end per frame, at most.
   double border_margin_px = 2.0;  // Hinges stay this far inside the image.
@@ -59,6 +64,14 @@ class SnakeTracker {
   // and seeds new ones from `lines` near `principal_point`.
   void Update(const Gradients& gradients, const std::vector<LineSegment>& lines,
               const Eigen::Vector2d& principal_point, cv::Size image_size);
+
+  // Adds snakes along polylines of raw pixels where an edge is expected (a line found
+  // straight in an image undistorted by a tentative lens, carried back through it): each
+  // is resampled, its hinges moved onto the edge within `search_px`, and the longest run
+  // of them that locked is kept (when next tracked it grows along its edge to a snake's
+  // length, or is dropped). Polylines a snake follows already are skipped.
+  void Seed(const Gradients& gradients, const std::vector<std::vector<Eigen::Vector2d>>& polylines,
+            double search_px, cv::Size image_size);
 
   const std::vector<RadonSnake>& snakes() const { return snakes_; }
   void set_options(const SnakeOptions& options) { options_ = options; }

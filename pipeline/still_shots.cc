@@ -301,14 +301,14 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   // Boxes 1-2: straight lines of every shot, and the distortion that straightens them.
   say("lines and distortion (boxes 1-2) in " + std::to_string(shot_count) + " shots");
   LensStage lens(options.lens);
-  for (const cv::Mat& shot : shots) {
-    if (stopped()) return out;
-    const LensSnapshot snapshot = lens.ProcessStill(shot, prior);
-    out.timing_ms["lines"].push_back(snapshot.lines_ms);
-  }
   {
     const auto start = std::chrono::steady_clock::now();
-    out.distortion = lens.EstimateNow(prior);
+    LensStage::StillsResult stills = lens.EstimateFromStills(shots, prior, stopped);
+    if (stopped()) return out;
+    out.distortion = std::move(stills.distortion);
+    for (const LensSnapshot& snapshot : stills.snapshots) {
+      out.timing_ms["lines"].push_back(snapshot.lines_ms);
+    }
     out.timing_ms["distortion"].push_back(MillisecondsSince(start));
   }
   // As on video: until box 10 has measured it, the planes are fitted with the plumb-line

@@ -3,12 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sqlite3.h>
 
 namespace autocal::test {
@@ -68,6 +72,43 @@ CameraIntrinsics FromOpenCv(const cv::Mat& camera_matrix, const cv::Mat& distort
   c.p2 = distortion.at<double>(3);
   if (distortion.total() > 4) c.k3 = distortion.at<double>(4);
   return c;
+}
+
+cv::Mat WarpThroughLens(const cv::Mat& photo, const CameraIntrinsics& lens, double yaw_deg,
+                        double pitch_deg, int jpeg_quality) {
+  const Eigen::Matrix3d turn =
+      (Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitY()) *
+       Eigen::AngleAxisd(pitch_deg * M_PI / 180, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  // Every pixel's ray in the photograph's camera, and the largest photograph focal length
+  // that keeps them all inside it.
+  cv::Mat rays(lens.height, lens.width, CV_64FC2);
+  const double half_w = 0.5 * (photo.cols - 1), half_h = 0.5 * (photo.rows - 1);
+  double focal = std::numeric_limits<double>::infinity();
+  for (int y = 0; y < lens.height; ++y) {
+    for (int x = 0; x < lens.width; ++x) {
+      const auto ideal = Unproject(lens, {double(x), double(y)});
+      if (!ideal) throw std::invalid_argument("WarpThroughLens: the lens folds inside its image");
+      const Eigen::Vector3d ray = turn * Eigen::Vector3d(ideal->x(), ideal->y(), 1.0);
+      if (!(ray.z() > 0)) throw std::invalid_argument("WarpThroughLens: turned too far");
+      const double u = ray.x() / ray.z(), v = ray.y() / ray.z();
+      rays.at<cv::Vec2d>(y, x) = {u, v};
+      if (u != 0) focal = std::min(focal, half_w / std::abs(u));
+      if (v != 0) focal = std::min(focal, half_h / std::abs(v));
+    }
+  }
+  cv::Mat map(lens.height, lens.width, CV_32FC2);
+  for (int y = 0; y < lens.height; ++y) {
+    for (int x = 0; x < lens.width; ++x) {
+      const cv::Vec2d ray = rays.at<cv::Vec2d>(y, x);
+      map.at<cv::Vec2f>(y, x) = {float(half_w + focal * ray[0]), float(half_h + focal * ray[1])};
+    }
+  }
+  cv::Mat warped;
+  cv::remap(photo, warped, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  std::vector<uchar> jpeg;
+  cv::imencode(".jpg", warped, jpeg, {cv::IMWRITE_JPEG_QUALITY, jpeg_quality});
+  return cv::imdecode(jpeg, cv::IMREAD_UNCHANGED);
 }
 
 bool ExpectJacobianMatchesCentralDifferences(const ceres::CostFunction& cost,

@@ -45,6 +45,15 @@ CameraIntrinsics WrongStart(const CameraIntrinsics& truth);
 CameraIntrinsics FromOpenCv(const cv::Mat& camera_matrix, const cv::Mat& distortion,
                             cv::Size size);
 
+// A real photograph as `lens` would see its scene: each pixel of the result (the lens's
+// image size) takes the photograph's colour where a pinhole camera with the photograph's
+// centre images that pixel's ray, turned by `yaw_deg` (about the image's vertical) and
+// `pitch_deg` (about its horizontal), with the focal length that just fits the whole frame
+// inside the photograph; then JPEG at `jpeg_quality`, as a camera would store it. The
+// photograph's own lens is taken for a pinhole: its distortion is part of the texture.
+cv::Mat WarpThroughLens(const cv::Mat& photo, const CameraIntrinsics& lens, double yaw_deg = 0.0,
+                        double pitch_deg = 0.0, int jpeg_quality = 90);
+
 // Checks every column of the Jacobian `cost` gives at `parameters` against central
 // differences of its residual (within 1e-5, relative beyond 1), naming `where` in
 // failures. False, with nothing checked, where the cost cannot be evaluated there.

@@ -20,7 +20,7 @@ write_calibration "$dir/prior.yaml" 640 480 "$fx" "$fy" "$cx" "$cy"
   --summary "$dir/summary.json" --out "$dir/estimate.yaml" 2>"$dir/progress"
 cat "$dir/summary.json"
 grep -q '20/20 images (100%)' "$dir/progress" || fail "progress shown"
-grep -q '"usable": 1' "$dir/summary.json" || fail "usable estimate"
+grep -q '"usable": true' "$dir/summary.json" || fail "usable estimate"
 # The estimate, read back from the OpenCV file it wrote.
 coefficients=$(awk '/distortion_coefficients/ {found = 1} found && /data:/ {gsub(/[][,]/, " "); print $2, $3; exit}' "$dir/estimate.yaml")
 read -r k1 k2 <<<"$coefficients"
