@@ -394,6 +394,7 @@ LensStage::StillsResult LensStage::EstimateFromStills(const std::vector<cv::Mat>
     cv::initUndistortRectifyMap(lens_matrix, distortion, cv::noArray(), pinhole_matrix,
                                 {w, h}, CV_16SC2, map1, map2);
 
+    auto previous_pool = std::move(pool_);
     pool_.clear();
     std::vector<LensSnapshot> snapshots;
     for (const cv::Mat& raw : raws) {
@@ -402,10 +403,23 @@ LensStage::StillsResult LensStage::EstimateFromStills(const std::vector<cv::Mat>
     }
     PlumbLineResult next = EstimateNow(initial);
     ++out.rounds;
+    const double reach = std::max(next.observability.covered_radius, 0.1);
+    // A round whose lines disagree with the last round's estimate, which they were found
+    // through, by more than both say they are sure of has followed edges that are not the
+    // lines of the last round (a board's grid printed on a sheet that is not flat, a
+    // texture's false lines): the round before is kept.
+    const double disagreement = MaxDistortionDifference(next.solved, lens, reach);
+    const DistortionObservability& before = out.distortion.observability;
+    if (out.distortion.usable &&
+        (!next.usable ||
+         disagreement > std::max(1.0, 3.0 * (before.shift_sigma_px +
+                                             next.observability.shift_sigma_px)))) {
+      pool_ = std::move(previous_pool);
+      ++pool_version_;
+      break;
+    }
     const bool settled =
-        next.lines_used <= out.distortion.lines_used * 1.05 &&
-        MaxDistortionDifference(next.solved, lens,
-                                std::max(next.observability.covered_radius, 0.1)) < 0.1;
+        next.lines_used <= out.distortion.lines_used * 1.05 && disagreement < 0.1;
     out.distortion = std::move(next);
     out.snapshots = std::move(snapshots);
     if (settled) break;

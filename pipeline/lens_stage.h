@@ -95,8 +95,10 @@ class LensStage {
   // the lines that have become straight anywhere in them, carries them back into the raw
   // images and follows them there with snakes, so that the arcs far out, which constrain
   // the lens most, join in; the rounds end when they add no line and move the lens by
-  // under 0.1 px. The pool then holds the last round's shapes, and the result is its
-  // estimate from `initial`. `stop` is asked between images.
+  // under 0.1 px, or when a round's estimate is not taken or departs from the one before by
+  // more than three times their sigmas, and that round is dropped. The pool then holds the
+  // last kept round's shapes, and the result is its estimate from `initial`. `stop` is
+  // asked between images.
   struct StillsResult {
     PlumbLineResult distortion;
     std::vector<LensSnapshot> snapshots;  // Per image, the last round's lines and snakes.

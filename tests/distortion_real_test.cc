@@ -57,11 +57,8 @@ TEST(DistortionReal, StraightLinesInOpenCvSampleShotsGiveTheTargetBasedDistortio
   // Ours, from the same focal length and principal point but no distortion.
   CameraIntrinsics start = reference;
   start.k1 = start.k2 = 0.0;
-  LensOptions options;
-  options.pool_per_cell = 1000;  // Still shots: keep every line.
-  LensStage stage(options);
-  for (const cv::Mat& image : images) stage.ProcessStill(image, start);
-  const PlumbLineResult result = stage.EstimateNow(start);
+  LensStage stage;
+  const PlumbLineResult result = stage.EstimateFromStills(images, start).distortion;
   ASSERT_TRUE(result.usable) << result.message;
 
   // How well each distortion explains the real board corners: calibrate everything else
