@@ -49,8 +49,8 @@ void PrintReport(const RunReport& report, bool stills) {
   std::printf("attempts %d: accepted %d, rejected %d, no update %d, alarm %d, new regime %d\n",
               report.attempts, count(Verdict::kAccepted), count(Verdict::kRejected),
               count(Verdict::kNoUpdate), count(Verdict::kAlarm), count(Verdict::kNewRegime));
-  for (const std::string& reason : report.no_update_reasons) {
-    std::printf("  %s\n", reason.c_str());
+  for (const RunReport::CauseCount& cause : report.no_update_causes) {
+    std::printf("  %d x %s\n", cause.count, cause.latest.c_str());
   }
   for (const Alarm& alarm : report.alarms) {
     std::printf("alarm at %.2f s: %s\n", 1e-9 * double(alarm.t_ns), alarm.description.c_str());

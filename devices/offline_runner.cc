@@ -115,11 +115,14 @@ void SummarizeHistory(const CalibrationHistory& history, int64_t end_ns, RunRepo
     if (attempt.verdict == Verdict::kAccepted || attempt.verdict == Verdict::kNewRegime) {
       report->final_rms_px = attempt.rms_px;
     }
-    if (attempt.verdict == Verdict::kNoUpdate &&
-        std::find(report->no_update_reasons.begin(), report->no_update_reasons.end(),
-                  attempt.reason) == report->no_update_reasons.end()) {
-      report->no_update_reasons.push_back(attempt.reason);
-    }
+    if (attempt.verdict != Verdict::kNoUpdate) continue;
+    const std::string cause = NoUpdateCause(attempt.reason);
+    auto& causes = report->no_update_causes;
+    auto counted = std::find_if(causes.begin(), causes.end(),
+                                [&](const RunReport::CauseCount& c) { return c.cause == cause; });
+    if (counted == causes.end()) counted = causes.insert(causes.end(), {cause, 0, {}});
+    ++counted->count;
+    counted->latest = attempt.reason;
   }
   report->alarms = history.alarms();
 }
@@ -421,9 +424,12 @@ std::string SummaryJson(const RunReport& report) {
             ", \"rms_after_px\": " + JsonNumber(p.rms_after_px) +
             ", \"observability\": " + ObservabilityJson(p.observability) + "},\n";
   }
-  json += "  \"no_update_reasons\": [";
-  for (size_t i = 0; i < report.no_update_reasons.size(); ++i) {
-    json += (i ? ", " : "") + JsonString(report.no_update_reasons[i]);
+  json += "  \"no_update_causes\": [";
+  for (size_t i = 0; i < report.no_update_causes.size(); ++i) {
+    const RunReport::CauseCount& counted = report.no_update_causes[i];
+    json += std::string(i ? ", " : "") + "{\"cause\": " + JsonString(counted.cause) +
+            ", \"count\": " + std::to_string(counted.count) +
+            ", \"latest\": " + JsonString(counted.latest) + "}";
   }
   json += "],\n  \"alarms\": [";
   for (size_t i = 0; i < report.alarms.size(); ++i) {

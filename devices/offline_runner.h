@@ -82,7 +82,14 @@ struct RunReport {
   int attempts = 0;
   std::map<Verdict, int> verdicts;
   std::vector<Alarm> alarms;
-  std::vector<std::string> no_update_reasons;  // Distinct reasons, in order of first use.
+  // Attempts that made no update, by the cause their reason names (NoUpdateCause), in
+  // order of first use.
+  struct CauseCount {
+    std::string cause;
+    int count = 0;
+    std::string latest;  // The newest such attempt's reason, with its figures.
+  };
+  std::vector<CauseCount> no_update_causes;
   // Box 2's newest plumb-line estimate, taken or not (what its lines constrain), if one was
   // made.
   std::optional<PlumbLineResult> plumb_line;

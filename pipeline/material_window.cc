@@ -1,6 +1,7 @@
 #include "pipeline/material_window.h"
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 
 namespace autocal {
@@ -48,6 +49,9 @@ bool MaterialWindow::Add(const MotionSnapshot& motion, const InertialSnapshot& i
     }
   }
   anchors_.Keep(motion.planes);
+  for (const Track& track : motion.tracks) {
+    view.tracked[track.id] = Eigen::Vector2d(track.current().x, track.current().y);
+  }
   if (inertial.gravity_source == GravitySource::kMeasured && inertial.gravity_cam) {
     GravityObservation gravity;
     gravity.down_cam = inertial.gravity_cam->normalized();
@@ -106,6 +110,8 @@ CalibrationMaterial MaterialWindow::Assemble(const std::vector<LineObservation>&
     material.gravity.push_back(gravity);
   }
 
+  material.motion = Motion();
+
   // Every n-th shape, so the thinned set keeps the pool's spread over the image.
   const size_t keep = static_cast<size_t>(options_.max_lines);
   if (lines.size() <= keep) {
@@ -114,6 +120,24 @@ CalibrationMaterial MaterialWindow::Assemble(const std::vector<LineObservation>&
     for (size_t i = 0; i < keep; ++i) material.lines.push_back(lines[i * lines.size() / keep]);
   }
   return material;
+}
+
+WindowMotion MaterialWindow::Motion() const {
+  WindowMotion motion;
+  motion.span_s = span_s();
+  std::vector<std::map<int, Eigen::Vector2d>> tracked;
+  for (const View& view : views_) tracked.push_back(view.tracked);
+  motion.image_px = LargestMedianDisplacementPx(tracked);
+  for (size_t a = 0; a < views_.size(); ++a) {
+    if (!views_[a].gravity) continue;
+    for (size_t b = a + 1; b < views_.size(); ++b) {
+      if (!views_[b].gravity) continue;
+      const double cosine =
+          std::clamp(views_[a].gravity->down_cam.dot(views_[b].gravity->down_cam), -1.0, 1.0);
+      motion.tilt_deg = std::max(motion.tilt_deg.value_or(0.0), std::acos(cosine) * 180.0 / M_PI);
+    }
+  }
+  return motion;
 }
 
 std::vector<int64_t> MaterialWindow::view_times() const {

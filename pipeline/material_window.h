@@ -78,7 +78,11 @@ class MaterialWindow {
     // Plane id -> (track id, raw pixel) of its member tracks.
     std::map<int, std::vector<std::pair<int, Eigen::Vector2d>>> planes;
     std::optional<GravityObservation> gravity;  // Frame index filled in by Assemble.
+    // Every live track's pixel by id: how far the image moved between views.
+    std::map<int, Eigen::Vector2d> tracked;
   };
+  // Assemble's CalibrationMaterial::motion over the views.
+  WindowMotion Motion() const;
 
   MaterialOptions options_;
   std::deque<View> views_;

@@ -152,6 +152,11 @@ OverlayGeometry MakeOverlayGeometry(const FrameSnapshot& snapshot,
       space == OverlaySpace::kRaw ? working : WithoutDistortion(working);
   const PixelMap map(working, space);
   OverlayGeometry out;
+  if (snapshot.lens.distortion) {
+    out.lens_verdict = LensVerdict(*snapshot.lens.distortion);
+    out.lens_detail = snapshot.lens.distortion->message;
+    out.lens_observable = snapshot.lens.distortion->usable;
+  }
 
   constexpr double kLineStepPx = 8.0;
   for (const LineSegment& line : snapshot.lens.lines) {

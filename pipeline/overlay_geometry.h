@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -67,6 +68,11 @@ struct OverlayGeometry {
   std::vector<PlaneOutline> planes;
   std::vector<Board> boards;
   std::optional<Gravity> gravity;
+  // Box 2's newest estimate in a few words (LensVerdict) and in full (its message), and
+  // whether it determined the lens; empty before the first.
+  std::string lens_verdict;
+  std::string lens_detail;
+  bool lens_observable = false;
 };
 
 // A virtual board and where the camera was, in the board's world, when the frame was taken.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <sstream>
 #include <unordered_map>
@@ -22,6 +23,9 @@ constexpr double kInfinity = std::numeric_limits<double>::infinity();
 const double kLongScale = std::sqrt(2.0);
 // Attempts at a new plane per frame whose inliers are too few or too crowded.
 constexpr int kDetectAttempts = 4;
+// The fewest matches a still-shot plane's guided matching starts from: a homography fitted
+// to fewer is as likely chance.
+constexpr int kMinGuidedSeed = 8;
 
 cv::Point2f Transfer(const cv::Matx33d& h, const cv::Point2f& p) {
   const cv::Vec3d q = h * cv::Vec3d(p.x, p.y, 1.0);
@@ -79,6 +83,65 @@ double Parallax(const std::vector<PlaneMotion>& motions, const CameraIntrinsics&
     parallax = std::min(parallax, m.translation_over_distance.norm());
   }
   return motions.empty() ? 0.0 : parallax * std::sqrt(camera.fx * camera.fy);
+}
+
+// Repetitive texture (a chessboard, floor tiles, a facade's windows) fails Lowe's test, its
+// keypoints alike, and a plane of it is found from its few distinct keypoints (a border,
+// a corner) if at all. Its homography then tells the alike ones apart: a keypoint of `a`
+// that it brings within `radius_px` of one of `b` whose descriptor is no farther than the
+// plane's own matches' is matched to the nearest such (guided matching), one to one and
+// keypoints of other planes' matches left alone. Appends the matches to `matches` and
+// their indices to `inliers`; returns how many.
+int GuidedMatches(const KeypointSet& a, const KeypointSet& b,
+                  const std::vector<cv::Point2f>& ideal_a, const std::vector<cv::Point2f>& ideal_b,
+                  const cv::Matx33d& homography, double radius_px, std::vector<bool>* taken_a,
+                  std::vector<bool>* taken_b, std::vector<cv::DMatch>* matches,
+                  std::vector<int>* inliers) {
+  float max_distance = 0.0f;
+  for (int k : *inliers) max_distance = std::max(max_distance, (*matches)[k].distance);
+  const int norm = a.descriptors.depth() == CV_8U ? cv::NORM_HAMMING : cv::NORM_L2;
+  // b's keypoints in cells of the radius: a prediction's candidates are in the 3 x 3 around.
+  const auto cell_of = [&](const cv::Point2f& p) {
+    return std::pair{int(std::floor(p.x / radius_px)), int(std::floor(p.y / radius_px))};
+  };
+  std::map<std::pair<int, int>, std::vector<int>> cells;
+  for (int j = 0; j < int(ideal_b.size()); ++j) {
+    if (!(*taken_b)[j]) cells[cell_of(ideal_b[j])].push_back(j);
+  }
+  struct Candidate {
+    double offset_px;
+    int i, j;
+    float distance;
+  };
+  std::vector<Candidate> candidates;
+  for (int i = 0; i < int(ideal_a.size()); ++i) {
+    if ((*taken_a)[i]) continue;
+    const cv::Point2f predicted = Transfer(homography, ideal_a[i]);
+    const auto [cx, cy] = cell_of(predicted);
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        const auto cell = cells.find({cx + dx, cy + dy});
+        if (cell == cells.end()) continue;
+        for (int j : cell->second) {
+          const double offset = Distance(predicted, ideal_b[j]);
+          if (offset > radius_px) continue;
+          const float distance = float(cv::norm(a.descriptors.row(i), b.descriptors.row(j), norm));
+          if (distance <= max_distance) candidates.push_back({offset, i, j, distance});
+        }
+      }
+    }
+  }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const Candidate& x, const Candidate& y) { return x.offset_px < y.offset_px; });
+  int added = 0;
+  for (const Candidate& c : candidates) {
+    if ((*taken_a)[c.i] || (*taken_b)[c.j]) continue;
+    (*taken_a)[c.i] = (*taken_b)[c.j] = true;
+    inliers->push_back(int(matches->size()));
+    matches->emplace_back(c.i, c.j, c.distance);
+    ++added;
+  }
+  return added;
 }
 
 }  // namespace
@@ -795,14 +858,14 @@ std::vector<ShotPlane> FindPlanesBetweenShots(const KeypointSet& a, const Keypoi
                                               const CameraIntrinsics& camera,
                                               const PlaneOptions& options,
                                               const FeatureOptions& features) {
-  const std::vector<cv::DMatch> matches = MatchKeypoints(a, b, features);
+  std::vector<cv::DMatch> matches = MatchKeypoints(a, b, features);
   std::vector<cv::Point2f> raw_a, raw_b;
   for (const cv::DMatch& m : matches) {
     raw_a.push_back(a.keypoints[m.queryIdx].pt);
     raw_b.push_back(b.keypoints[m.trainIdx].pt);
   }
-  const std::vector<cv::Point2f> ideal_a = UndistortPixels(raw_a, camera);
-  const std::vector<cv::Point2f> ideal_b = UndistortPixels(raw_b, camera);
+  std::vector<cv::Point2f> ideal_a = UndistortPixels(raw_a, camera);
+  std::vector<cv::Point2f> ideal_b = UndistortPixels(raw_b, camera);
   auto pick = [](const std::vector<cv::Point2f>& points, const std::vector<int>& indices) {
     std::vector<cv::Point2f> picked;
     for (int i : indices) picked.push_back(points[i]);
@@ -815,11 +878,48 @@ std::vector<ShotPlane> FindPlanesBetweenShots(const KeypointSet& a, const Keypoi
     std::vector<int> inliers;  // Indices into `matches`.
   };
   std::vector<Found> found;
+  // With guided matching, every keypoint's ideal position, and which are matched on a plane.
+  std::vector<cv::Point2f> all_a, all_b, ideal_all_a, ideal_all_b;
+  std::vector<bool> taken_a, taken_b;
+  if (options.shot_guided_matching) {
+    for (const cv::KeyPoint& k : a.keypoints) all_a.push_back(k.pt);
+    for (const cv::KeyPoint& k : b.keypoints) all_b.push_back(k.pt);
+    ideal_all_a = UndistortPixels(all_a, camera);
+    ideal_all_b = UndistortPixels(all_b, camera);
+    taken_a.assign(all_a.size(), false);
+    taken_b.assign(all_b.size(), false);
+  }
+  // A plane's guided matches, twice (the first refine the homography that finds the
+  // farther ones); the positions of the matches are extended with them.
+  const auto grow = [&](Found* plane) {
+    for (int k : plane->inliers) taken_a[matches[k].queryIdx] = taken_b[matches[k].trainIdx] = true;
+    for (int round = 0; round < 2; ++round) {
+      const size_t before = matches.size();
+      if (GuidedMatches(a, b, ideal_all_a, ideal_all_b, plane->homography,
+                        options.shot_inlier_threshold_px, &taken_a, &taken_b, &matches,
+                        &plane->inliers) == 0) {
+        return;
+      }
+      for (size_t k = before; k < matches.size(); ++k) {
+        raw_a.push_back(all_a[matches[k].queryIdx]);
+        raw_b.push_back(all_b[matches[k].trainIdx]);
+        ideal_a.push_back(ideal_all_a[matches[k].queryIdx]);
+        ideal_b.push_back(ideal_all_b[matches[k].trainIdx]);
+      }
+      if (const auto refit =
+              FitHomography(pick(ideal_a, plane->inliers), pick(ideal_b, plane->inliers))) {
+        plane->homography = *refit;
+      }
+    }
+  };
+  // A seed of repetitive texture holds few distinct matches: fewer than a plane needs do to
+  // start one that guided matching then brings to min_inliers.
+  const int min_seed = options.shot_guided_matching ? std::min(options.min_inliers, kMinGuidedSeed)
+                                                    : options.min_inliers;
   std::vector<int> pool(matches.size());
   std::iota(pool.begin(), pool.end(), 0);
-  for (int attempt = 0;
-       attempt < kDetectAttempts + options.max_planes && int(found.size()) < options.max_planes &&
-       int(pool.size()) >= options.min_inliers;
+  for (int attempt = 0; attempt < kDetectAttempts + options.max_planes &&
+                        int(found.size()) < options.max_planes && int(pool.size()) >= min_seed;
        ++attempt) {
     std::vector<uchar> mask;
     const std::optional<cv::Matx33d> h = FitHomographyRansac(
@@ -829,8 +929,27 @@ std::vector<ShotPlane> FindPlanesBetweenShots(const KeypointSet& a, const Keypoi
     Found plane{*h, {}};
     std::vector<int> rest;
     for (size_t k = 0; k < pool.size(); ++k) (mask[k] ? plane.inliers : rest).push_back(pool[k]);
-    if (int(plane.inliers.size()) < options.min_inliers) break;
+    if (int(plane.inliers.size()) < min_seed) break;
     pool = std::move(rest);
+    if (options.shot_guided_matching) {
+      const std::vector<bool> kept_a = taken_a, kept_b = taken_b;
+      const size_t kept_matches = matches.size();
+      grow(&plane);
+      if (int(plane.inliers.size()) < options.min_inliers) {
+        // Not a plane after all: its seed's matches stay out of the pool, as a refused
+        // plane's do, and its guided matches are undone.
+        taken_a = kept_a;
+        taken_b = kept_b;
+        matches.resize(kept_matches);
+        raw_a.resize(kept_matches);
+        raw_b.resize(kept_matches);
+        ideal_a.resize(kept_matches);
+        ideal_b.resize(kept_matches);
+        continue;
+      }
+    } else if (int(plane.inliers.size()) < options.min_inliers) {
+      break;
+    }
     if (AreaFraction(Hull(pick(raw_b, plane.inliers)), {camera.width, camera.height}) >=
         options.min_area_fraction) {
       found.push_back(std::move(plane));

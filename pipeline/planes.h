@@ -68,6 +68,10 @@ struct PlaneOptions {
   int normal_votes = 30;                  // Frames of decomposition candidates voted over.
   double normal_agreement_deg = 5.0;      // Candidates this close vote for each other.
   double shot_inlier_threshold_px = 3.0;  // Still shots: transfer error of matched keypoints.
+  // Still shots: each plane's homography also matches the keypoints that Lowe's test
+  // refused for looking alike (repetitive texture), where it brings them within the
+  // threshold of each other.
+  bool shot_guided_matching = true;
 
   bool Check(std::string* error) const;
 };

@@ -9,6 +9,7 @@
 #include <optional>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 
 #include <ceres/ceres.h>
 #include <Eigen/Cholesky>
@@ -250,30 +251,38 @@ DistortionObservability Assess(const std::vector<const LineObservation*>& lines,
                                 std::sqrt(std::max(spread.selfadjointView<Eigen::Upper>().eigenvalues().maxCoeff(), 0.0)));
   }
 
-  std::ostringstream why;
+  std::ostringstream why, brief;
   why << std::fixed << std::setprecision(0);
+  brief << std::fixed << std::setprecision(0);
   const double covered_percent = std::round(100 * o.covered_radius);
   if (o.covered_radius < options.min_covered_radius) {
     why << "the lines reach only " << covered_percent << "% of the half-diagonal from the principal point ("
         << 100 * options.min_covered_radius << "% needed), where the lens bends them little";
+    brief << "lines reach only " << covered_percent << "%";
   } else if (o.direction_share > options.max_direction_share) {
     why << 100 * o.direction_share << "% of the line points run within 20 deg of one direction ("
         << 100 * options.max_direction_share << "% allowed): one direction only";
+    brief << "lines in one direction only";
   } else if (!have_covariance) {
     why << "the lines leave the distortion free (singular covariance)";
+    brief << "lines leave it free";
   } else if (!undistortable) {
     why << "the estimate folds the image within " << covered_percent << "% of the half-diagonal";
+    brief << "the estimate folds the image";
   } else if (o.shift_sigma_px > options.max_sigma_px) {
     why << "the shift within " << covered_percent << "% of the half-diagonal is uncertain by "
         << std::setprecision(2) << o.shift_sigma_px << " px (1-sigma; " << options.max_sigma_px
         << " px allowed)";
+    brief << std::setprecision(1) << "uncertain by " << o.shift_sigma_px << " px";
   } else if (o.change_px > std::max(kLargeChangePx, 5.0 * o.shift_sigma_px) &&
              rms_after > (1.0 - options.min_straightening) * rms_before) {
     why << std::setprecision(3) << "the lines are about as straight under the initial lens ("
         << rms_before << " px) as under the estimate (" << rms_after << " px), which moves it by "
         << std::setprecision(1) << o.change_px << " px within " << std::setprecision(0)
         << covered_percent << "% of the half-diagonal";
+    brief << "lines as straight without it";
   }
+  o.brief_reason = brief.str();
   o.reason = why.str();
   o.observable = o.reason.empty();
   return o;
@@ -647,6 +656,28 @@ PlumbLineResult EstimateDistortion(const std::vector<LineObservation>& observati
   result.usable = true;
   result.message = message.str();
   return result;
+}
+
+std::string LensVerdict(const PlumbLineResult& result) {
+  const DistortionObservability& o = result.observability;
+  std::ostringstream verdict;
+  verdict << std::fixed;
+  if (result.usable) {
+    verdict << std::setprecision(1) << "lens: " << o.max_shift_px << " \u00b1 "
+            << std::setprecision(2) << o.shift_sigma_px << " px to " << std::setprecision(0)
+            << 100 * o.covered_radius << "% (" << result.lines_used << " lines)";
+  } else if (!o.brief_reason.empty()) {
+    verdict << "lens not observable: " << o.brief_reason;
+  } else {
+    constexpr std::string_view kNotObservable = "not observable: ";
+    const std::string_view message(result.message);
+    if (message.starts_with(kNotObservable)) {
+      verdict << "lens not observable: " << message.substr(kNotObservable.size());
+    } else {
+      verdict << "lens: " << message;
+    }
+  }
+  return verdict.str();
 }
 
 std::string ObservabilityJson(const DistortionObservability& o) {

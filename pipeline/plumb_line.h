@@ -59,7 +59,8 @@ struct DistortionObservability {
   // radius, px: how far the estimate moved the lens.
   double change_px = 0.0;
   bool observable = false;
-  std::string reason;  // Why not observable; empty when it is.
+  std::string reason;        // Why not observable; empty when it is.
+  std::string brief_reason;  // The same in a few words, for a display.
 };
 
 struct PlumbLineResult {
@@ -83,6 +84,12 @@ struct PlumbLineResult {
   // constrain the lens, `estimate` is the initial camera and the message says why.
   DistortionObservability observability;
 };
+
+// A few words for a display: the largest shift box 2's estimate gives within the radius its
+// lines reach, its 1-sigma, that radius and the lines ("lens: 12.3 ± 0.09 px to 78% (214
+// lines)"), or, plainly, that the lines do not determine the lens and why ("lens not
+// observable: lines reach only 36%"). PlumbLineResult::message says it in full.
+std::string LensVerdict(const PlumbLineResult& result);
 
 // The observability as a JSON object (the summaries' "observability" field).
 std::string ObservabilityJson(const DistortionObservability& observability);

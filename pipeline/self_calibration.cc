@@ -8,6 +8,7 @@
 #include <memory>
 #include <set>
 #include <sstream>
+#include <string_view>
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -36,6 +37,8 @@ bool SelfCalibrationOptions::Check(std::string* error) const {
     why << "min_points_per_plane must be at least 6";
   } else if (!(min_rotation_deg >= 0)) {
     why << "min_rotation_deg must not be negative";
+  } else if (!(barely_moved_px >= 0)) {
+    why << "barely_moved_px must not be negative";
   } else if (!(max_focal_sigma > 0)) {
     why << "max_focal_sigma must be positive";
   } else if (max_iterations < 1) {
@@ -409,11 +412,10 @@ Eigen::Isometry3d PlaneFrame(const std::map<int, Eigen::Vector3d>& points,
   return world_from_plane;
 }
 
-}  // namespace
-
-SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
-                                    const CameraIntrinsics& prior,
-                                    const SelfCalibrationOptions& options) {
+// Box 10 with the whole scene one rigid world: every plane still, the camera moving.
+SelfCalibrationResult SolveInOneWorld(const CalibrationMaterial& material,
+                                      const CameraIntrinsics& prior,
+                                      const SelfCalibrationOptions& options) {
   SelfCalibrationResult result;
   result.estimate = prior;
   // Which intrinsics are free.
@@ -454,8 +456,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     tracks.push_back(std::move(t));
   }
   if (tracks.empty()) {
-    return no_update("no plane with " + std::to_string(options.min_points_per_plane) +
-                     " tracked points");
+    return no_update("no plane with enough tracked points (" +
+                     std::to_string(options.min_points_per_plane) + " needed)");
   }
   const auto by_size = [&](size_t a, size_t b) { return tracks[a].size() > tracks[b].size(); };
   std::vector<size_t> order(tracks.size());
@@ -528,7 +530,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     if (structure.cam_from_world[f]) posed.push_back(f);
   }
   if (int(posed.size()) < options.min_frames) {
-    return no_update("only " + std::to_string(posed.size()) + " frames could be placed (" +
+    return no_update("too few frames could be placed (" + std::to_string(posed.size()) + ", " +
                      std::to_string(options.min_frames) + " needed)");
   }
   for (int a : posed) {
@@ -539,6 +541,7 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
     }
   }
   if (result.rotation_spread_deg < options.min_rotation_deg) {
+    result.too_little_view_change = true;
     std::ostringstream why;
     why.precision(2);
     why << std::fixed << "insufficient rotation (" << result.rotation_spread_deg
@@ -987,8 +990,8 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
         (before - steps.back().cost) / before / double(std::max<size_t>(span, 1));
     std::ostringstream why;
     why.precision(3);
-    why << "the solve did not converge in " << options.max_iterations
-        << " iterations (the cost still falling " << 100 * fall_per_step << "% an iteration)";
+    why << "the solve did not converge (" << options.max_iterations
+        << " iterations, the cost still falling " << 100 * fall_per_step << "% an iteration)";
     return no_update(why.str());
   }
 
@@ -1095,6 +1098,134 @@ SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
          << result.rotation_spread_deg << " deg; " << result.iterations << " iterations";
   result.reason = report.str();
   return result;
+}
+
+// How far a plane's image moved between two of its views.
+double PlaneImageMotionPx(const PlaneTrack& plane) {
+  std::map<int, std::map<int, Eigen::Vector2d>> by_frame;  // Frame -> point -> pixel.
+  for (const PlaneObservation& o : plane.observations) by_frame[o.frame][o.point] = o.pixel;
+  std::vector<std::map<int, Eigen::Vector2d>> views;
+  for (auto& [frame, points] : by_frame) views.push_back(std::move(points));
+  return LargestMedianDisplacementPx(views);
+}
+
+// SolveInOneWorld, and when its views differ too little, each plane in a world of its own.
+SelfCalibrationResult SolveInSceneOrPlaneWorlds(const CalibrationMaterial& material,
+                                                const CameraIntrinsics& prior,
+                                                const SelfCalibrationOptions& options) {
+  SelfCalibrationResult joint = SolveInOneWorld(material, prior, options);
+  if (joint.usable || !joint.too_little_view_change) return joint;
+  // The views differ too little for the scene as a whole, but the planes need not hold still
+  // together: a board moved about before a fixed camera is seen from many orientations
+  // relative to itself, as Zhang's method has it. Each plane is then its own world, solved
+  // alone; gravity and the earlier solution, which are of the scene's world, are left out.
+  std::optional<SelfCalibrationResult> best;
+  double best_focal_sigma = std::numeric_limits<double>::infinity();
+  double widest_deg = 0.0;
+  int widest_plane = 0;
+  for (const PlaneTrack& plane : material.planes) {
+    std::set<int> points;
+    for (const PlaneObservation& o : plane.observations) points.insert(o.point);
+    // A plane in its own world is one that moved before the camera; one whose image held
+    // still (the room behind the board) has no view change of its own to give, and its
+    // noise alone, decomposed into poses, would give a wrong one.
+    if (int(points.size()) < options.min_points_per_plane ||
+        !(PlaneImageMotionPx(plane) >= options.barely_moved_px)) {
+      continue;
+    }
+    CalibrationMaterial alone;
+    alone.frame_count = material.frame_count;
+    alone.frame_t_ns = material.frame_t_ns;
+    alone.planes = {plane};
+    alone.lines = material.lines;
+    SelfCalibrationResult own = SolveInOneWorld(alone, prior, options);
+    if (own.rotation_spread_deg > widest_deg) {
+      widest_deg = own.rotation_spread_deg;
+      widest_plane = plane.id;
+    }
+    if (!own.usable) continue;
+    const double focal_sigma = std::sqrt(own.covariance(0, 0)) / own.estimate.fx;
+    if (focal_sigma < best_focal_sigma) {
+      best_focal_sigma = focal_sigma;
+      own.own_world_plane = plane.id;
+      best = std::move(own);
+    }
+  }
+  std::ostringstream why;
+  why.precision(2);
+  why << std::fixed;
+  if (best) {
+    why << "; plane " << best->own_world_plane << " alone, in its own world: relative to it the"
+        << " views differ by " << best->rotation_spread_deg << " deg, relative to the scene by "
+        << joint.rotation_spread_deg << " deg (the plane moved, or the rest of the scene did)";
+    best->reason += why.str();
+    return *best;
+  }
+  if (widest_plane != 0 && widest_deg > joint.rotation_spread_deg) {
+    why << " (relative to any one plane at most " << widest_deg << " deg, plane " << widest_plane
+        << ")";
+    joint.reason += why.str();
+  }
+  return joint;
+}
+
+}  // namespace
+
+SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
+                                    const CameraIntrinsics& prior,
+                                    const SelfCalibrationOptions& options) {
+  SelfCalibrationResult result = SolveInSceneOrPlaneWorlds(material, prior, options);
+  // Whatever else failed, a camera that barely moved is the cause to name first: it is the
+  // one the user can do something about, and the rest follows from it.
+  if (result.usable || !material.degraded.empty() || !material.motion ||
+      !(material.motion->image_px < options.barely_moved_px)) {
+    return result;
+  }
+  const WindowMotion& motion = *material.motion;
+  std::ostringstream why;
+  why.precision(1);
+  why << std::fixed << "no update: " << kBarelyMovedCause << " (its image moved at most "
+      << motion.image_px << " px over " << motion.span_s << " s";
+  if (motion.tilt_deg) why << ", it tilted " << *motion.tilt_deg << " deg";
+  why << "; " << options.barely_moved_px << " px needed): ";
+  constexpr std::string_view kNoUpdate = "no update: ";
+  const std::string_view rest(result.reason);
+  why << (rest.starts_with(kNoUpdate) ? rest.substr(kNoUpdate.size()) : rest);
+  result.reason = why.str();
+  return result;
+}
+
+double LargestMedianDisplacementPx(const std::vector<std::map<int, Eigen::Vector2d>>& views) {
+  constexpr size_t kMinShared = 8;  // Fewer say nothing of the image as a whole.
+  double largest = 0.0;
+  std::vector<double> moved;
+  for (size_t a = 0; a < views.size(); ++a) {
+    for (size_t b = a + 1; b < views.size(); ++b) {
+      moved.clear();
+      for (auto i = views[a].begin(), j = views[b].begin();
+           i != views[a].end() && j != views[b].end();) {
+        if (i->first < j->first) {
+          ++i;
+        } else if (j->first < i->first) {
+          ++j;
+        } else {
+          moved.push_back((j++->second - i++->second).norm());
+        }
+      }
+      if (moved.size() < kMinShared) continue;
+      std::nth_element(moved.begin(), moved.begin() + moved.size() / 2, moved.end());
+      largest = std::max(largest, moved[moved.size() / 2]);
+    }
+  }
+  return largest;
+}
+
+std::string NoUpdateCause(const std::string& reason) {
+  constexpr std::string_view kNoUpdate = "no update: ";
+  std::string_view cause(reason);
+  if (!cause.starts_with(kNoUpdate)) return {};
+  cause.remove_prefix(kNoUpdate.size());
+  return std::string(cause.substr(0, std::min(cause.find(" ("), cause.find(':'))));
 }
 
 CalibrationStart StartFrom(const SelfCalibrationResult& solved,

@@ -7,8 +7,10 @@
 // current calibration, so a wrong start converges to the truth instead of staying put.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -56,6 +58,16 @@ struct CalibrationStart {
   std::vector<PlaneEstimate> planes;  // In the same world.
 };
 
+// How far the camera moved over a window of frames, as its images and its accelerometer saw
+// it: an attempt that makes no update names it when the camera barely moved.
+struct WindowMotion {
+  double span_s = 0.0;
+  // The largest median displacement (px) of the tracked features two views share: the
+  // image motion every plane's parallax and view change come from.
+  double image_px = 0.0;
+  std::optional<double> tilt_deg;  // Largest angle between two views' measured gravity.
+};
+
 // Everything one calibration attempt draws on, over a window of frames.
 struct CalibrationMaterial {
   // Why images in the window were unfit to measure from (box 9's quality gate); when set,
@@ -66,6 +78,7 @@ struct CalibrationMaterial {
   std::vector<PlaneTrack> planes;
   std::vector<LineObservation> lines;  // Snake shapes: straight world lines.
   std::vector<GravityObservation> gravity;
+  std::optional<WindowMotion> motion;  // Unset where not measured (still shots).
   // Windows overlap: the previous attempt's solution, when there is one, is where the solve
   // starts (SelfCalibrationOptions::warm_start).
   std::optional<CalibrationStart> start;
@@ -94,6 +107,12 @@ struct SelfCalibrationOptions {
   int min_frames = 6;                    // Fewer frames with a pose: no update.
   int min_points_per_plane = 12;         // Planes with fewer tracked points are left out.
   double min_rotation_deg = 8.0;         // Views must differ by this much in orientation.
+  // An attempt that makes no update over a window whose image moved less than this (px,
+  // CalibrationMaterial::motion) puts it down to the camera barely moving, with the figures:
+  // a plane is told apart by its parallax (PlaneOptions::min_parallax_px, 16 px), and 8 deg
+  // of turn moves the image by 40-140 px at the fields of view of body cameras. A plane is
+  // solved in its own world only if its image moved this much.
+  double barely_moved_px = 20.0;
   double max_focal_sigma = 0.01;         // No update when sigma(fx) / fx exceeds this.
   // Levenberg-Marquardt iterations a pass; a last pass still descending after them makes no
   // update (it was crawling along a nearly flat valley, and stopped anywhere on it).
@@ -145,6 +164,12 @@ struct SelfCalibrationResult {
   std::vector<int> free_parameters;
   double rms_px = 0.0;               // Reprojection RMS of the plane tracks.
   double rotation_spread_deg = 0.0;  // Largest angle between two views' orientations.
+  // No update because the views' orientations differ by less than min_rotation_deg.
+  bool too_little_view_change = false;
+  // Non-zero: the views differed too little relative to the scene as a whole, and this
+  // plane, solved alone in its own world (the poses are relative to it), gave the update:
+  // a plane that moved before the camera, as a board before a fixed one.
+  int own_world_plane = 0;
   int frames_used = 0;
   int planes_used = 0;
   int points_used = 0;
@@ -157,9 +182,23 @@ struct SelfCalibrationResult {
   std::vector<PlaneEstimate> planes;
 };
 
+// The scene is first taken as one rigid world; when its views differ too little in
+// orientation, each plane with enough points is tried alone in its own world, and the one
+// whose focal length is surest gives the result (SelfCalibrationResult::own_world_plane).
 SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
                                     const CameraIntrinsics& prior,
                                     const SelfCalibrationOptions& options);
+
+// The largest, over pairs of views, of the median displacement (px) of the points both
+// see (each view: point id -> pixel), skipping pairs that share fewer than 8: how far the
+// image moved (CalibrationMaterial::motion, a plane's own motion).
+double LargestMedianDisplacementPx(const std::vector<std::map<int, Eigen::Vector2d>>& views);
+
+// Every reason of an attempt that makes no update reads "no update: <cause>", then its
+// figures in parentheses or its details after a colon; the cause names what was missing
+// in words alone, so that the causes of many attempts can be counted.
+std::string NoUpdateCause(const std::string& reason);
+inline constexpr std::string_view kBarelyMovedCause = "the camera barely moved";
 
 // The start `solved` (on views taken at `solved_views`) gives an attempt on views taken at
 // `views`: the intrinsics, the planes and the poses of the views both have.

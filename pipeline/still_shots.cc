@@ -62,6 +62,10 @@ class DisjointSets {
   std::vector<size_t> parent_;
 };
 
+// The fewest tracks two shots share for a plane's homography between them to carry its
+// other tracks into one of them (CompleteTracks).
+constexpr int kMinSharedToComplete = 12;
+
 // A keypoint of one shot, numbered over all shots.
 struct Keypoint {
   int shot = 0;
@@ -197,6 +201,83 @@ std::vector<std::vector<ShotTrack>> SplitIntoPlanes(std::vector<ShotTrack> track
     tracks = std::move(rest);
   }
   return planes;
+}
+
+// A plane's tracks carried into the shots they miss. Repetitive texture (a chessboard)
+// is matched only between the pairs of shots where a few distinct keypoints seeded its
+// plane, and its tracks reach few of the shots that see it. For each shot, from the other
+// shot sharing most of the plane's tracks with it, the homography between the two (RANSAC
+// over the shared tracks) brings each track missing there within `threshold_px` of one of
+// the shot's keypoints, whose descriptor is no farther from the track's there than the
+// shared tracks' are: it joins the track, nearest first, one keypoint to one track.
+void CompleteTracks(std::vector<ShotTrack>* tracks, const std::vector<cv::Point2f>& ideal,
+                    const std::vector<int>& first_keypoint, const std::vector<KeypointSet>& sets,
+                    int min_shared, const PlaneOptions& options) {
+  const int shot_count = int(sets.size());
+  const auto descriptor = [&](int global) {
+    const auto shot = std::upper_bound(first_keypoint.begin(), first_keypoint.end(), global) - 1;
+    return sets[shot - first_keypoint.begin()].descriptors.row(global - *shot);
+  };
+  const int norm =
+      !sets.empty() && sets[0].descriptors.depth() == CV_8U ? cv::NORM_HAMMING : cv::NORM_L2;
+  const double threshold = options.shot_inlier_threshold_px;
+  for (int to = 0; to < shot_count; ++to) {
+    // The shot sharing most tracks with `to`.
+    int from = -1, shared = 0;
+    for (int s = 0; s < shot_count; ++s) {
+      if (s == to) continue;
+      const int n = int(std::count_if(tracks->begin(), tracks->end(), [&](const ShotTrack& t) {
+        return t.count(s) && t.count(to);
+      }));
+      if (n > shared) std::tie(shared, from) = std::tie(n, s);
+    }
+    if (shared < min_shared) continue;
+    std::vector<cv::Point2f> a, b;
+    double max_distance = 0.0;
+    std::set<int> used;  // Keypoints of `to` already on a track.
+    for (const ShotTrack& t : *tracks) {
+      if (const auto in_to = t.find(to); in_to != t.end()) used.insert(in_to->second);
+      if (const auto both = InBoth(t, from, to, ideal)) {
+        a.push_back(both->first);
+        b.push_back(both->second);
+        max_distance =
+            std::max(max_distance, cv::norm(descriptor(t.at(from)), descriptor(t.at(to)), norm));
+      }
+    }
+    std::vector<uchar> mask;
+    const std::optional<cv::Matx33d> homography =
+        FitHomographyRansac(a, b, threshold, options.ransac_iterations, kRansacConfidence, &mask);
+    if (!homography) continue;
+    struct Candidate {
+      double offset_px;
+      size_t track;
+      int keypoint;
+    };
+    std::vector<Candidate> candidates;
+    for (size_t t = 0; t < tracks->size(); ++t) {
+      const ShotTrack& track = (*tracks)[t];
+      if (track.count(to) || !track.count(from)) continue;
+      const cv::Point2f& p = ideal[track.at(from)];
+      const cv::Vec3d q = *homography * cv::Vec3d(p.x, p.y, 1.0);
+      const cv::Point2f predicted(float(q[0] / q[2]), float(q[1] / q[2]));
+      for (int k = first_keypoint[to]; k < first_keypoint[to + 1]; ++k) {
+        const double offset = cv::norm(ideal[k] - predicted);
+        if (offset > threshold || used.count(k)) continue;
+        if (cv::norm(descriptor(track.at(from)), descriptor(k), norm) <= max_distance) {
+          candidates.push_back({offset, t, k});
+        }
+      }
+    }
+    std::sort(candidates.begin(), candidates.end(),
+              [](const Candidate& x, const Candidate& y) { return x.offset_px < y.offset_px; });
+    std::set<size_t> completed;
+    for (const Candidate& c : candidates) {
+      if (completed.count(c.track) || used.count(c.keypoint)) continue;
+      (*tracks)[c.track][to] = c.keypoint;
+      completed.insert(c.track);
+      used.insert(c.keypoint);
+    }
+  }
 }
 
 // The tracks of `material` that `solved` placed and reprojects within `threshold_px` in
@@ -390,6 +471,9 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
     for (std::vector<ShotTrack>& tracks :
          SplitIntoPlanes(TracksOf(members, keypoints, options.min_shots_per_point), ideal,
                          shot_count, options.planes, options.calibration.min_points_per_plane)) {
+      if (options.planes.shot_guided_matching) {
+        CompleteTracks(&tracks, ideal, first_keypoint, sets, kMinSharedToComplete, options.planes);
+      }
       std::stable_sort(tracks.begin(), tracks.end(), [](const ShotTrack& x, const ShotTrack& y) {
         return x.size() > y.size();
       });

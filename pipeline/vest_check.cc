@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <sstream>
+#include <string_view>
 #include <utility>
 
 #include "pipeline/error.h"
@@ -29,7 +30,10 @@ bool Founds(Verdict verdict) {
 // What box 10's "no update" or the history's rejection asks of the walk; nothing when the
 // reason names no motion (the solver failed, ...).
 std::optional<VestNeed> NeedFromReason(const std::string& reason) {
-  const auto has = [&](const char* text) { return reason.find(text) != std::string::npos; };
+  const auto has = [&](std::string_view text) { return reason.find(text) != std::string::npos; };
+  // A camera that barely moved needs to be walked before anything else (whatever failed
+  // after that, insufficient rotation included).
+  if (has(kBarelyMovedCause)) return VestNeed::kPlanes;
   if (has("insufficient rotation")) return VestNeed::kRotation;
   // Too few tracks on a plane, or views of the planes too alike to fix the focal length.
   if (has("no plane with") || has("frames could be placed") || has("seen from two placed") ||

@@ -332,8 +332,14 @@ TEST(CalibrationEndToEnd, StaticCameraMakesNoUpdateAndSaysWhy) {
   EXPECT_GT(run.report.attempts, 0) << "attempts were made and judged";
   for (const AttemptRecord& attempt : run.stored.attempts) {
     EXPECT_EQ(attempt.verdict, Verdict::kNoUpdate);
-    EXPECT_NE(attempt.reason.find("no update: "), std::string::npos) << attempt.reason;
+    // The physical cause, with the motion measured: the image moved under a pixel.
+    EXPECT_EQ(NoUpdateCause(attempt.reason), kBarelyMovedCause) << attempt.reason;
+    EXPECT_NE(attempt.reason.find("its image moved at most 0."), std::string::npos)
+        << attempt.reason;
   }
+  ASSERT_EQ(run.report.no_update_causes.size(), 1u) << "one cause, counted";
+  EXPECT_EQ(run.report.no_update_causes[0].cause, kBarelyMovedCause);
+  EXPECT_EQ(run.report.no_update_causes[0].count, run.report.attempts);
   // The output is the pre-mission calibration, untouched.
   const CalibrationError moved =
       CompareCalibration(run.report.final.calibration, run.truth.front().intrinsics);

@@ -159,6 +159,11 @@ TEST_P(DistortionWarped, ArcsOfRealPhotographsGiveTheLensDistortion) {
   EXPECT_GE(o.covered_radius, 0.7) << "the lines reach the outer image";
   EXPECT_LT(error, 1.0) << "px within 80% of the half-diagonal";
   EXPECT_LT(error, 3 * o.shift_sigma_px + 0.2) << "px: the error is within what the sigma says";
+  // What the workbench shows: the shift and its sigma, how far out, from how many lines.
+  char verdict[160];
+  std::snprintf(verdict, sizeof verdict, "lens: %.1f \u00b1 %.2f px to %.0f%% (%d lines)",
+                o.max_shift_px, o.shift_sigma_px, 100 * o.covered_radius, result.lines_used);
+  EXPECT_EQ(LensVerdict(result), verdict);
 }
 
 INSTANTIATE_TEST_SUITE_P(RealPhotographs, DistortionWarped,
@@ -191,6 +196,8 @@ TEST(DistortionReal, LinesOnlyNearTheCentreAreNotObservable) {
   EXPECT_CONTAINS(result.message, "not observable: the lines reach only");
   EXPECT_EQ(result.estimate.k1, 0.0) << "the initial distortion is kept";
   EXPECT_LT(result.observability.covered_radius, 0.5);
+  EXPECT_EQ(LensVerdict(result).rfind("lens not observable: lines reach only ", 0), 0u)
+      << LensVerdict(result);
 }
 
 // The photograph smeared along its columns keeps only its upright edges: every line runs
@@ -206,6 +213,7 @@ TEST(DistortionReal, LinesInOneDirectionAreNotObservable) {
   EXPECT_FALSE(result.usable);
   EXPECT_CONTAINS(result.message, "not observable");
   EXPECT_EQ(result.estimate.k1, 0.0) << "the initial distortion is kept";
+  EXPECT_EQ(LensVerdict(result), "lens not observable: lines in one direction only");
 }
 
 }  // namespace

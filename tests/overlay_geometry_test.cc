@@ -61,6 +61,38 @@ TEST(OverlayGeometry, RawSpaceKeepsThePipelinesPixels) {
   EXPECT_NEAR((overlay.planes[0].centre - Eigen::Vector2d(120, 340.0 / 3)).norm(), 0.0, 1e-9);
 }
 
+// Box 2's verdict goes with every frame once there is an estimate, in words the widgets
+// show as they are.
+TEST(OverlayGeometry, CarriesBox2sVerdictOnTheLens) {
+  FrameSnapshot frame = Frame();
+  EXPECT_EQ(MakeOverlayGeometry(frame, {}, {}, OverlaySpace::kRaw).lens_verdict, "")
+      << "no estimate yet";
+  PlumbLineResult refused;
+  refused.message = "not observable: 3 lines with at least 8 points, 8 needed";
+  frame.lens.distortion = refused;
+  OverlayGeometry overlay = MakeOverlayGeometry(frame, {}, {}, OverlaySpace::kRaw);
+  EXPECT_EQ(overlay.lens_verdict, "lens not observable: 3 lines with at least 8 points, 8 needed");
+  EXPECT_FALSE(overlay.lens_observable);
+  EXPECT_EQ(overlay.lens_detail, refused.message) << "in full, for the tooltip";
+  refused.observability.reason = "the lines reach only 36% of the half-diagonal (50% needed)";
+  refused.observability.brief_reason = "lines reach only 36%";
+  frame.lens.distortion = refused;
+  EXPECT_EQ(MakeOverlayGeometry(frame, {}, {}, OverlaySpace::kRectified).lens_verdict,
+            "lens not observable: lines reach only 36%");
+
+  PlumbLineResult taken;
+  taken.usable = true;
+  taken.lines_used = 214;
+  taken.observability.observable = true;
+  taken.observability.covered_radius = 0.784;
+  taken.observability.max_shift_px = 12.34;
+  taken.observability.shift_sigma_px = 0.087;
+  frame.lens.distortion = taken;
+  overlay = MakeOverlayGeometry(frame, {}, {}, OverlaySpace::kRaw);
+  EXPECT_EQ(overlay.lens_verdict, "lens: 12.3 \u00b1 0.09 px to 78% (214 lines)");
+  EXPECT_TRUE(overlay.lens_observable);
+}
+
 TEST(OverlayGeometry, RectifiedSpaceIsTheUndistortedCameraMatrixImage) {
   const FrameSnapshot frame = Frame();
   const CameraIntrinsics& camera = frame.working;

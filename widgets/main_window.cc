@@ -344,11 +344,17 @@ void MainWindow::createOverlayControls() {
     toolbar->addAction(action);
   }
   if (!view_mode_group_->checkedAction()) view_mode_group_->actions().front()->setChecked(true);
+  // Box 2's verdict on the lens takes the room the layers leave, elided to it (the whole
+  // message in its tooltip); a lens the lines do not determine is said in red.
+  status_lens_ = new ElidedLabel;
+  status_lens_->setObjectName(QStringLiteral("status_lens"));
+  status_lens_->setMinimumWidth(0);
+  status_lens_->setAlignment(Qt::AlignRight | Qt::AlignVCenter);
+  status_lens_->setSizePolicy(QSizePolicy::Expanding, QSizePolicy::Preferred);
+  status_lens_->setContentsMargins(8, 0, 16, 0);  // Apart from the layers and what was found.
+  toolbar->addWidget(status_lens_);
   // What the pipeline found in the frame on screen, beside the layers that draw it; a fixed
   // size, so that its text changing every frame does not lay the window out again.
-  auto* spacer = new QWidget;
-  spacer->setSizePolicy(QSizePolicy::Expanding, QSizePolicy::Preferred);
-  toolbar->addWidget(spacer);
   status_found_ = new QLabel;
   status_found_->setObjectName(QStringLiteral("status_found"));
   status_found_->setToolTip(tr("What the pipeline found in the frame on screen"));
@@ -853,9 +859,19 @@ void MainWindow::onOverlaysChanged(const FrameOverlays& overlays) {
   onPipelineProgress();
   if (!overlays.raw) {
     status_found_->clear();
+    status_lens_->clear();
+    status_lens_->setToolTip({});
     return;
   }
   const OverlayGeometry& found = *overlays.raw;
+  const QString verdict = QString::fromStdString(found.lens_verdict);
+  if (verdict != status_lens_->text()) {
+    status_lens_->setText(verdict);
+    status_lens_->setToolTip(QString::fromStdString(found.lens_detail));
+    status_lens_->setStyleSheet(found.lens_observable || verdict.isEmpty()
+                                    ? QString()
+                                    : QStringLiteral("color: #c62828; font-weight: bold"));
+  }
   status_found_->setText(tr("%1 lines, %2 snakes, %3 tracks, %4 planes, %5 boards")
                              .arg(found.lines.size())
                              .arg(found.snakes.size())

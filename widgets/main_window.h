@@ -199,6 +199,7 @@ class MainWindow : public QMainWindow {
   QLabel* status_fps_ = nullptr;
   QLabel* status_position_ = nullptr;
   QLabel* status_found_ = nullptr;
+  ElidedLabel* status_lens_ = nullptr;  // Box 2's verdict on the lens.
   QLabel* status_pipeline_ = nullptr;
   QLabel* status_display_ = nullptr;
 

@@ -159,6 +159,7 @@ class WorkbenchTest : public QObject {
   void settingsPersist();
   void screenshotIsNotBlank();
   void statusTextFitsAtDefaultSize();
+  void showsBox2sVerdictOnTheLens();
   void timingDockShowsTheRunsBoxTimes();
   void runsFromThePremissionCalibrationGiven();
   void takesTheRecordingsRollingShutter();
@@ -791,6 +792,36 @@ void WorkbenchTest::statusTextFitsAtDefaultSize() {
   QVERIFY(elided->fontMetrics().horizontalAdvance(elided->shownText()) <=
           elided->contentsRect().width());
   QVERIFY(window.grab().save(ScreenshotPath(QStringLiteral("workbench_narrow.png"))));
+}
+
+// What box 2's newest estimate is sure of, above the video, as the pipeline worded it (the
+// widget only shows it); nothing before the first estimate.
+void WorkbenchTest::showsBox2sVerdictOnTheLens() {
+  MainWindow window;
+  window.resize(1200, 800);
+  window.show();
+  QVERIFY(QTest::qWaitForWindowExposed(&window));
+  QSignalSpy finished(window.pipelineController(), &PipelineController::finished);
+  QSignalSpy opened(&window, &MainWindow::opened);
+  window.open(kSimSource);
+  QVERIFY(opened.wait(60000));
+  const auto* lens = window.findChild<ElidedLabel*>(QStringLiteral("status_lens"));
+  QVERIFY(lens);
+  QVERIFY(finished.wait(120000));
+  window.playback()->pause();
+  window.playback()->seekToIndex(0);
+  const auto* found = window.findChild<QLabel*>(QStringLiteral("status_found"));
+  QTRY_VERIFY_WITH_TIMEOUT(!found->text().isEmpty(), 20000);
+  QCOMPARE(lens->text(), QString());  // The first frame has no estimate yet.
+  window.playback()->seekToIndex(int(window.sequence()->frame_count()) - 1);
+  QTRY_VERIFY_WITH_TIMEOUT(!lens->text().isEmpty(), 20000);
+  QVERIFY2(lens->text().startsWith(QStringLiteral("lens: ")), qPrintable(lens->text()));
+  QVERIFY2(lens->text().contains(QStringLiteral(" px to ")), qPrintable(lens->text()));
+  QVERIFY2(lens->text().endsWith(QStringLiteral(" lines)")), qPrintable(lens->text()));
+  // The estimate's whole message, for a closer look.
+  QVERIFY2(lens->toolTip().startsWith(QStringLiteral("k1=")), qPrintable(lens->toolTip()));
+  QVERIFY2(lens->styleSheet().isEmpty(), "an observable lens is not shown as a fault");
+  QVERIFY(window.grab().save(ScreenshotPath(QStringLiteral("workbench_lens_verdict.png"))));
 }
 
 // Issue 6: each box's median and 95th percentile in the workbench, as in the summary. Once
