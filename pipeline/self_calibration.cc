@@ -1019,6 +1019,7 @@ SelfCalibrationResult SolveInOneWorld(const CalibrationMaterial& material,
         std::max_element(by_view.begin(), by_view.end(), [](const auto& a, const auto& b) {
           return a.second.first / a.second.second < b.second.first / b.second.second;
         });
+    result.came_apart = true;
     std::ostringstream why;
     why.precision(3);
     why << "the solve came apart: RMS " << result.rms_px << " px where half the observations"
@@ -1114,11 +1115,13 @@ SelfCalibrationResult SolveInSceneOrPlaneWorlds(const CalibrationMaterial& mater
                                                 const CameraIntrinsics& prior,
                                                 const SelfCalibrationOptions& options) {
   SelfCalibrationResult joint = SolveInOneWorld(material, prior, options);
-  if (joint.usable || !joint.too_little_view_change) return joint;
-  // The views differ too little for the scene as a whole, but the planes need not hold still
-  // together: a board moved about before a fixed camera is seen from many orientations
-  // relative to itself, as Zhang's method has it. Each plane is then its own world, solved
-  // alone; gravity and the earlier solution, which are of the scene's world, are left out.
+  if (joint.usable || !(joint.too_little_view_change || joint.came_apart)) return joint;
+  // The views differ too little for the scene as a whole, or the scene came apart as one
+  // world, but the planes need not hold still together: a board moved about before a fixed
+  // camera is seen from many orientations relative to itself, as Zhang's method has it
+  // (the board the anchor, the room behind it tears from it). Each plane is then its own
+  // world, solved alone; gravity and the earlier solution, which are of the scene's world,
+  // are left out.
   std::optional<SelfCalibrationResult> best;
   double best_focal_sigma = std::numeric_limits<double>::infinity();
   double widest_deg = 0.0;
@@ -1156,8 +1159,14 @@ SelfCalibrationResult SolveInSceneOrPlaneWorlds(const CalibrationMaterial& mater
   why << std::fixed;
   if (best) {
     why << "; plane " << best->own_world_plane << " alone, in its own world: relative to it the"
-        << " views differ by " << best->rotation_spread_deg << " deg, relative to the scene by "
-        << joint.rotation_spread_deg << " deg (the plane moved, or the rest of the scene did)";
+        << " views differ by " << best->rotation_spread_deg << " deg";
+    if (joint.came_apart) {
+      why << ", and the scene as one world came apart (the plane moved, or the rest of the "
+             "scene did)";
+    } else {
+      why << ", relative to the scene by " << joint.rotation_spread_deg
+          << " deg (the plane moved, or the rest of the scene did)";
+    }
     best->reason += why.str();
     return *best;
   }

@@ -166,7 +166,11 @@ struct SelfCalibrationResult {
   double rotation_spread_deg = 0.0;  // Largest angle between two views' orientations.
   // No update because the views' orientations differ by less than min_rotation_deg.
   bool too_little_view_change = false;
-  // Non-zero: the views differed too little relative to the scene as a whole, and this
+  // No update because the solve fitted most observations and missed a few by far: a view
+  // or a plane torn from the rest.
+  bool came_apart = false;
+  // Non-zero: the views differed too little relative to the scene as a whole (or the scene
+  // came apart as one world), and this
   // plane, solved alone in its own world (the poses are relative to it), gave the update:
   // a plane that moved before the camera, as a board before a fixed one.
   int own_world_plane = 0;
@@ -183,7 +187,8 @@ struct SelfCalibrationResult {
 };
 
 // The scene is first taken as one rigid world; when its views differ too little in
-// orientation, each plane with enough points is tried alone in its own world, and the one
+// orientation or it comes apart, each plane with enough points whose image moved is tried
+// alone in its own world, and the one
 // whose focal length is surest gives the result (SelfCalibrationResult::own_world_plane).
 SelfCalibrationResult SelfCalibrate(const CalibrationMaterial& material,
                                     const CameraIntrinsics& prior,

@@ -280,6 +280,96 @@ void CompleteTracks(std::vector<ShotTrack>* tracks, const std::vector<cv::Point2
   }
 }
 
+// Each track's pixel in every shot but its first, moved to where the patch around its
+// first pixel, warped by the plane's homography between the two shots (through the lens),
+// matches best: scale-invariant keypoints sit where a blob's response peaks, and a
+// slanted view moves that peak across the blob, by a different amount in each shot; the
+// aligned pixel is the image of the same scene point in every shot. A pixel whose patch
+// matches poorly (correlation under 0.8) or lies more than 2 px off is left as found.
+void AlignTracksToTheirFirstShot(const std::vector<ShotTrack>& tracks,
+                                 const std::vector<Keypoint>& keypoints,
+                                 const std::vector<cv::Point2f>& ideal,
+                                 const std::vector<cv::Mat>& grey, const CameraIntrinsics& camera,
+                                 int min_shared, const PlaneOptions& options,
+                                 std::map<std::pair<size_t, int>, cv::Point2f>* aligned) {
+  constexpr int kHalf = 7, kSearch = 3;
+  constexpr double kMinCorrelation = 0.8, kMaxShiftPx = 2.0;
+  const int shot_count = int(grey.size());
+  const auto to_raw = [&](const cv::Point2f& p) {
+    const Eigen::Vector2d raw = Project(
+        camera, Eigen::Vector3d((p.x - camera.cx) / camera.fx, (p.y - camera.cy) / camera.fy, 1.0));
+    return cv::Point2f(float(raw.x()), float(raw.y()));
+  };
+  for (int from = 0; from < shot_count; ++from) {
+    for (int to = 0; to < shot_count; ++to) {
+      if (to == from) continue;
+      std::vector<cv::Point2f> a, b;
+      for (const ShotTrack& t : tracks) {
+        if (const auto both = InBoth(t, from, to, ideal)) {
+          a.push_back(both->first);
+          b.push_back(both->second);
+        }
+      }
+      if (int(a.size()) < min_shared) continue;
+      std::vector<uchar> mask;
+      const std::optional<cv::Matx33d> h =
+          FitHomographyRansac(a, b, options.shot_inlier_threshold_px, options.ransac_iterations,
+                              kRansacConfidence, &mask);
+      if (!h) continue;
+      const auto map = [&](const cv::Point2f& raw) {
+        const cv::Point2f in = UndistortPixels({raw}, camera)[0];
+        const cv::Vec3d q = *h * cv::Vec3d(in.x, in.y, 1.0);
+        return to_raw(cv::Point2f(float(q[0] / q[2]), float(q[1] / q[2])));
+      };
+      for (size_t t = 0; t < tracks.size(); ++t) {
+        const ShotTrack& track = tracks[t];
+        if (track.begin()->first != from || !track.count(to)) continue;
+        const cv::Point2f p = keypoints[track.at(from)].pixel;
+        const cv::Point2f q = keypoints[track.at(to)].pixel;
+        // The map from shot `from` to shot `to` near p, as an affine.
+        const cv::Point2f dx = (map(p + cv::Point2f(1, 0)) - map(p - cv::Point2f(1, 0))) * 0.5f;
+        const cv::Point2f dy = (map(p + cv::Point2f(0, 1)) - map(p - cv::Point2f(0, 1))) * 0.5f;
+        cv::Matx22d affine(dx.x, dy.x, dx.y, dy.y);
+        if (!(std::abs(cv::determinant(affine)) > 1e-3)) continue;
+        const cv::Matx22d inverse = affine.inv();
+        // The patch of `from` as shot `to` would see it, centred on p's image there.
+        const int side = 2 * kHalf + 1;
+        cv::Mat warp = (cv::Mat_<double>(2, 3) << inverse(0, 0), inverse(0, 1),
+                        p.x - inverse(0, 0) * kHalf - inverse(0, 1) * kHalf, inverse(1, 0),
+                        inverse(1, 1), p.y - inverse(1, 0) * kHalf - inverse(1, 1) * kHalf);
+        cv::Mat patch;
+        cv::warpAffine(grey[from], patch, warp, {side, side},
+                       cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+        const int x0 = int(std::lround(q.x)) - kHalf - kSearch;
+        const int y0 = int(std::lround(q.y)) - kHalf - kSearch;
+        const cv::Rect search(x0, y0, side + 2 * kSearch, side + 2 * kSearch);
+        if ((search & cv::Rect(0, 0, grey[to].cols, grey[to].rows)) != search) continue;
+        cv::Mat score;
+        cv::matchTemplate(grey[to](search), patch, score, cv::TM_CCOEFF_NORMED);
+        cv::Point best;
+        double peak = 0.0;
+        cv::minMaxLoc(score, nullptr, &peak, nullptr, &best);
+        if (peak < kMinCorrelation || best.x == 0 || best.y == 0 || best.x == score.cols - 1 ||
+            best.y == score.rows - 1) {
+          continue;
+        }
+        const auto vertex = [](float l, float c, float r) {
+          const float d = l - 2 * c + r;
+          return d < 0 ? 0.5f * (l - r) / d : 0.0f;
+        };
+        const float sx =
+            vertex(score.at<float>(best.y, best.x - 1), score.at<float>(best.y, best.x),
+                   score.at<float>(best.y, best.x + 1));
+        const float sy =
+            vertex(score.at<float>(best.y - 1, best.x), score.at<float>(best.y, best.x),
+                   score.at<float>(best.y + 1, best.x));
+        const cv::Point2f found(float(x0 + best.x + kHalf) + sx, float(y0 + best.y + kHalf) + sy);
+        if (cv::norm(found - q) <= kMaxShiftPx) (*aligned)[{t, to}] = found;
+      }
+    }
+  }
+}
+
 // The tracks of `material` that `solved` placed and reprojects within `threshold_px` in
 // every shot that sees them (tracks it left out stay, they cost nothing); the number left
 // out. Planes left with too few tracks go.
@@ -493,13 +583,25 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   });
 
   out.material.frame_count = shot_count;
+  std::vector<cv::Mat> grey(shots.size());
+  for (int s = 0; s < shot_count; ++s) {
+    if (shots[s].channels() == 1) {
+      grey[s] = shots[s];
+    } else {
+      cv::extractChannel(shots[s], grey[s], 1);
+    }
+  }
   for (size_t p = 0; p < planes.size(); ++p) {
     PlaneTrack plane;
     plane.id = static_cast<int>(p) + 1;
+    std::map<std::pair<size_t, int>, cv::Point2f> aligned;
+    AlignTracksToTheirFirstShot(planes[p], keypoints, ideal, grey, out.working,
+                                kMinSharedToComplete, options.planes, &aligned);
     for (size_t t = 0; t < planes[p].size(); ++t) {
       for (const auto& [shot, k] : planes[p][t]) {
-        plane.observations.push_back(
-            {shot, static_cast<int>(t), {keypoints[k].pixel.x, keypoints[k].pixel.y}});
+        const auto moved = aligned.find({t, shot});
+        const cv::Point2f pixel = moved != aligned.end() ? moved->second : keypoints[k].pixel;
+        plane.observations.push_back({shot, static_cast<int>(t), {pixel.x, pixel.y}});
       }
     }
     out.material.planes.push_back(std::move(plane));

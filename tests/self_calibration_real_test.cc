@@ -207,10 +207,11 @@ TEST_P(SelfCalibrationReal, StillShotsOfTheBoardMovedBeforeTheFixedCameraCalibra
       distortion_80, 100 * std::sqrt(all.covariance(0, 0)) / all.estimate.fx,
       std::sqrt(all.covariance(2, 2)), std::sqrt(all.covariance(3, 3)));
   EXPECT_GT(all.own_world_plane, 0) << "the board, in its own world";
-  // Measured on both cameras, fx +0.8-0.9%, the principal point within 6 px; the issue's
-  // 1% and 3 px are met on the right camera only (docs/validation.md).
-  EXPECT_LT(std::abs(error.fx_percent), 1.5) << "% fx";
-  EXPECT_LT(std::abs(error.fy_percent), 1.5) << "% fy";
+  // Measured: fx +0.39% / +0.44%, fy +0.49% / +0.62%, cx +1.7 / -2.0 px, cy +6.3 / +0.4 px
+  // (left / right); the 3 px on the principal point is not met on the left camera
+  // (docs/validation.md).
+  EXPECT_LT(std::abs(error.fx_percent), 1.0) << "% fx";
+  EXPECT_LT(std::abs(error.fy_percent), 1.0) << "% fy";
   EXPECT_LT(std::abs(error.cx_px), 8.0) << "px cx";
   EXPECT_LT(std::abs(error.cy_px), 8.0) << "px cy";
   EXPECT_LT(distortion_80, 1.5) << "px, where the board reaches";

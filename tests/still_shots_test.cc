@@ -158,11 +158,12 @@ TEST_P(StillShotsFromWrongPrior, ConvergeToTheTruthOnTrueScenePlanes) {
   PrintError("all shots", error);
   std::printf("RMS %.3f px, sigma fx %.3f%%\n", all.rms_px,
               100.0 * std::sqrt(all.covariance(0, 0)) / all.estimate.fx);
-  // The calibration issue's tolerances for a 20 s walk, but on fx, fy where measured
-  // otherwise (the case's). Measured on the east wall: sonnar fx +0.001%, fy +0.010%,
-  // cx +0.66 px, cy -0.11 px, distortion 0.20 px; tessar +0.013%, +0.019%, +0.10 px,
-  // +0.40 px, 0.09 px. On the west wall, sonnar: fx -0.64%, fy -0.62% (box 10's sigma
-  // 0.11%: a bias of these shots' keypoints, not noise), cx +0.70 px, cy +0.13 px, 0.29 px.
+  // The calibration issue's tolerances for a 20 s walk. Measured on the east wall: sonnar
+  // fx +0.020%, fy +0.077%, cx -0.01 px, cy +0.24 px, distortion 0.08 px; tessar -0.053%,
+  // -0.052%, -0.23 px, -0.31 px, 0.07 px. On the west wall, sonnar: fx -0.12%, fy -0.10%,
+  // cx +0.01 px, cy -0.18 px, 0.33 px; -0.64% before the tracks were aligned to their first
+  // shot (AlignTracksToTheirFirstShot), the bias of SIFT's keypoint positions on the
+  // slanted wall.
   EXPECT_LT(std::abs(error.fx_percent), c.focal_percent);
   EXPECT_LT(std::abs(error.fy_percent), c.focal_percent);
   EXPECT_LT(std::abs(error.cx_px), 2.0);
@@ -177,7 +178,7 @@ TEST_P(StillShotsFromWrongPrior, ConvergeToTheTruthOnTrueScenePlanes) {
 INSTANTIATE_TEST_SUITE_P(LensesAndWalls, StillShotsFromWrongPrior,
                          ::testing::Values(StillShotCase{"sonnar", 0.0, 0.5},
                                            StillShotCase{"tessar", 0.0, 0.5},
-                                           StillShotCase{"sonnar", 180.0, 1.0}),
+                                           StillShotCase{"sonnar", 180.0, 0.5}),
                          [](const ::testing::TestParamInfo<StillShotCase>& param_info) {
                            return param_info.param.lens +
                                   (param_info.param.facing_deg == 0.0 ? "EastWall" : "WestWall");
