@@ -445,19 +445,23 @@ SelfCalibrationResult SolveInOneWorld(const CalibrationMaterial& material,
   // largest plane anchors the world.
   std::vector<const PlaneTrack*> used;
   std::vector<Tracks> tracks;
+  size_t largest = 0;  // Tracked points of the largest plane.
   for (const PlaneTrack& plane : material.planes) {
     Tracks t;
     for (const PlaneObservation& o : plane.observations) {
       if (o.frame < 0 || o.frame >= material.frame_count) continue;
       if (const auto ray = Unproject(start, o.pixel)) t[o.point][o.frame] = *ray;
     }
+    largest = std::max(largest, t.size());
     if (int(t.size()) < options.min_points_per_plane) continue;
     used.push_back(&plane);
     tracks.push_back(std::move(t));
   }
   if (tracks.empty()) {
     return no_update("no plane with enough tracked points (" +
-                     std::to_string(options.min_points_per_plane) + " needed)");
+                     (material.planes.empty() ? std::string("none found")
+                                              : "the largest has " + std::to_string(largest)) +
+                     ", " + std::to_string(options.min_points_per_plane) + " needed)");
   }
   const auto by_size = [&](size_t a, size_t b) { return tracks[a].size() > tracks[b].size(); };
   std::vector<size_t> order(tracks.size());
