@@ -203,6 +203,24 @@ std::vector<std::vector<ShotTrack>> SplitIntoPlanes(std::vector<ShotTrack> track
   return planes;
 }
 
+// A plane's homography from shot `from` to shot `to` (ideal pixels), by RANSAC over the
+// tracks both see; none when they share fewer than `min_shared`.
+std::optional<cv::Matx33d> HomographyBetween(const std::vector<ShotTrack>& tracks, int from, int to,
+                                             const std::vector<cv::Point2f>& ideal, int min_shared,
+                                             const PlaneOptions& options) {
+  std::vector<cv::Point2f> a, b;
+  for (const ShotTrack& t : tracks) {
+    if (const auto both = InBoth(t, from, to, ideal)) {
+      a.push_back(both->first);
+      b.push_back(both->second);
+    }
+  }
+  if (int(a.size()) < min_shared) return std::nullopt;
+  std::vector<uchar> mask;
+  return FitHomographyRansac(a, b, options.shot_inlier_threshold_px, options.ransac_iterations,
+                             kRansacConfidence, &mask);
+}
+
 // A plane's tracks carried into the shots they miss. Repetitive texture (a chessboard)
 // is matched only between the pairs of shots where a few distinct keypoints seeded its
 // plane, and its tracks reach few of the shots that see it. For each shot, from the other
@@ -232,22 +250,20 @@ void CompleteTracks(std::vector<ShotTrack>* tracks, const std::vector<cv::Point2
       if (n > shared) std::tie(shared, from) = std::tie(n, s);
     }
     if (shared < min_shared) continue;
-    std::vector<cv::Point2f> a, b;
+    const std::optional<cv::Matx33d> homography =
+        HomographyBetween(*tracks, from, to, ideal, min_shared, options);
+    if (!homography) continue;
     double max_distance = 0.0;
     std::set<int> used;  // Keypoints of `to` already on a track.
     for (const ShotTrack& t : *tracks) {
-      if (const auto in_to = t.find(to); in_to != t.end()) used.insert(in_to->second);
-      if (const auto both = InBoth(t, from, to, ideal)) {
-        a.push_back(both->first);
-        b.push_back(both->second);
-        max_distance =
-            std::max(max_distance, cv::norm(descriptor(t.at(from)), descriptor(t.at(to)), norm));
+      if (const auto in_to = t.find(to); in_to != t.end()) {
+        used.insert(in_to->second);
+        if (t.count(from)) {
+          max_distance = std::max(
+              max_distance, cv::norm(descriptor(t.at(from)), descriptor(in_to->second), norm));
+        }
       }
     }
-    std::vector<uchar> mask;
-    const std::optional<cv::Matx33d> homography =
-        FitHomographyRansac(a, b, threshold, options.ransac_iterations, kRansacConfidence, &mask);
-    if (!homography) continue;
     struct Candidate {
       double offset_px;
       size_t track;
@@ -303,18 +319,8 @@ void AlignTracksToTheirFirstShot(const std::vector<ShotTrack>& tracks,
   for (int from = 0; from < shot_count; ++from) {
     for (int to = 0; to < shot_count; ++to) {
       if (to == from) continue;
-      std::vector<cv::Point2f> a, b;
-      for (const ShotTrack& t : tracks) {
-        if (const auto both = InBoth(t, from, to, ideal)) {
-          a.push_back(both->first);
-          b.push_back(both->second);
-        }
-      }
-      if (int(a.size()) < min_shared) continue;
-      std::vector<uchar> mask;
       const std::optional<cv::Matx33d> h =
-          FitHomographyRansac(a, b, options.shot_inlier_threshold_px, options.ransac_iterations,
-                              kRansacConfidence, &mask);
+          HomographyBetween(tracks, from, to, ideal, min_shared, options);
       if (!h) continue;
       const auto map = [&](const cv::Point2f& raw) {
         const cv::Point2f in = UndistortPixels({raw}, camera)[0];
@@ -489,18 +495,18 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   say("keypoints (box 4) in " + std::to_string(shot_count) + " shots");
   // Box 4: keypoints of every shot, on the green channel (smallest colour fringes).
   std::vector<KeypointSet> sets(shots.size());
+  std::vector<cv::Mat> green(shots.size());  // Kept: the tracks are aligned on it too.
   std::vector<int> first_keypoint(shots.size() + 1, 0);
   std::vector<Keypoint> keypoints;
   for (int s = 0; s < shot_count; ++s) {
     if (stopped()) return out;
     const auto start = std::chrono::steady_clock::now();
-    cv::Mat green;
     if (shots[s].channels() == 1) {
-      green = shots[s];
+      green[s] = shots[s];
     } else {
-      cv::extractChannel(shots[s], green, 1);
+      cv::extractChannel(shots[s], green[s], 1);
     }
-    sets[s] = DetectKeypoints(green, options.features);
+    sets[s] = DetectKeypoints(green[s], options.features);
     out.timing_ms["features"].push_back(MillisecondsSince(start));
     first_keypoint[s + 1] = first_keypoint[s] + static_cast<int>(sets[s].keypoints.size());
     for (const cv::KeyPoint& k : sets[s].keypoints) keypoints.push_back({s, k.pt});
@@ -583,19 +589,11 @@ StillShotCalibration CalibrateStillShots(const std::vector<cv::Mat>& shots,
   });
 
   out.material.frame_count = shot_count;
-  std::vector<cv::Mat> grey(shots.size());
-  for (int s = 0; s < shot_count; ++s) {
-    if (shots[s].channels() == 1) {
-      grey[s] = shots[s];
-    } else {
-      cv::extractChannel(shots[s], grey[s], 1);
-    }
-  }
   for (size_t p = 0; p < planes.size(); ++p) {
     PlaneTrack plane;
     plane.id = static_cast<int>(p) + 1;
     std::map<std::pair<size_t, int>, cv::Point2f> aligned;
-    AlignTracksToTheirFirstShot(planes[p], keypoints, ideal, grey, out.working,
+    AlignTracksToTheirFirstShot(planes[p], keypoints, ideal, green, out.working,
                                 kMinSharedToComplete, options.planes, &aligned);
     for (size_t t = 0; t < planes[p].size(); ++t) {
       for (const auto& [shot, k] : planes[p][t]) {
